@@ -1,0 +1,315 @@
+//! Small fixed-size vector and rotation kernels used by every hot loop: 3-vectors as `[f64; 3]`,
+//! director matrices as `[[f64; 3]; 3]` (rows are d1, d2, d3), Rodrigues' exponential (spec §5)
+//! and the numerically safe rotation logarithm (spec §2). No allocation, no dynamic dispatch.
+
+/// A 3-vector, lab or material components as the caller states.
+pub type Vec3 = [f64; 3];
+/// A 3×3 matrix stored by rows; for directors the rows are d1, d2, d3 in lab components.
+pub type Mat3 = [[f64; 3]; 3];
+
+/// The identity matrix.
+pub const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// Dot product.
+#[inline(always)]
+pub fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Cross product a × b.
+#[inline(always)]
+pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// a + b.
+#[inline(always)]
+pub fn add(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// a − b.
+#[inline(always)]
+pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// s · a.
+#[inline(always)]
+pub fn scale(s: f64, a: Vec3) -> Vec3 {
+    [s * a[0], s * a[1], s * a[2]]
+}
+
+/// Euclidean norm.
+#[inline(always)]
+pub fn norm(a: Vec3) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// Q a: lab → material components when Q is a director matrix.
+#[inline(always)]
+pub fn mat_vec(q: &Mat3, a: Vec3) -> Vec3 {
+    [dot(q[0], a), dot(q[1], a), dot(q[2], a)]
+}
+
+/// Qᵀ a: material → lab components when Q is a director matrix.
+#[inline(always)]
+pub fn mat_t_vec(q: &Mat3, a: Vec3) -> Vec3 {
+    [
+        q[0][0] * a[0] + q[1][0] * a[1] + q[2][0] * a[2],
+        q[0][1] * a[0] + q[1][1] * a[1] + q[2][1] * a[2],
+        q[0][2] * a[0] + q[1][2] * a[1] + q[2][2] * a[2],
+    ]
+}
+
+/// A B.
+#[inline(always)]
+pub fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
+    let mut c = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for col in 0..3 {
+            c[r][col] = a[r][0] * b[0][col] + a[r][1] * b[1][col] + a[r][2] * b[2][col];
+        }
+    }
+    c
+}
+
+/// A Bᵀ.
+#[inline(always)]
+pub fn mat_mul_t(a: &Mat3, b: &Mat3) -> Mat3 {
+    let mut c = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for col in 0..3 {
+            c[r][col] = dot(a[r], b[col]);
+        }
+    }
+    c
+}
+
+/// Aᵀ.
+#[inline(always)]
+pub fn transpose(a: &Mat3) -> Mat3 {
+    [
+        [a[0][0], a[1][0], a[2][0]],
+        [a[0][1], a[1][1], a[2][1]],
+        [a[0][2], a[1][2], a[2][2]],
+    ]
+}
+
+/// The rotation exp(−[a]×) by Rodrigues' formula (spec eq. 5.2–5.3). For |a| < 0.1 the
+/// coefficients come from their Taylor series (error < 1e-17), so no libm call is made there.
+#[inline(always)]
+pub fn exp_neg_skew(a: Vec3) -> Mat3 {
+    let t2 = dot(a, a);
+    let (s, c) = if t2 < 0.01 {
+        let s = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0)));
+        let c = 0.5 * (1.0 - t2 / 12.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0 * (1.0 - t2 / 90.0))));
+        (s, c)
+    } else {
+        let t = t2.sqrt();
+        (t.sin() / t, (1.0 - t.cos()) / t2)
+    };
+    let (a0, a1, a2) = (a[0], a[1], a[2]);
+    [
+        [1.0 - c * (a1 * a1 + a2 * a2), s * a2 + c * a0 * a1, -s * a1 + c * a0 * a2],
+        [-s * a2 + c * a0 * a1, 1.0 - c * (a0 * a0 + a2 * a2), s * a0 + c * a1 * a2],
+        [s * a1 + c * a0 * a2, -s * a0 + c * a1 * a2, 1.0 - c * (a0 * a0 + a1 * a1)],
+    ]
+}
+
+/// Rotation vector Θ of R = Q_a Q_bᵀ (so that R = exp([Θ]×)), from the rows of the two
+/// director matrices without forming R (spec §2, "numerically safe Log"). Returns Θ and the
+/// rotation angle θ = |Θ| ∈ [0, π]. For θ near π the result is ill-conditioned; callers guard it.
+#[inline(always)]
+pub fn log_relative(qa: &Mat3, qb: &Mat3) -> (Vec3, f64) {
+    // R_mn = d_m(a) · d_n(b)
+    let r01 = dot(qa[0], qb[1]);
+    let r10 = dot(qa[1], qb[0]);
+    let r02 = dot(qa[0], qb[2]);
+    let r20 = dot(qa[2], qb[0]);
+    let r12 = dot(qa[1], qb[2]);
+    let r21 = dot(qa[2], qb[1]);
+    let trace = dot(qa[0], qb[0]) + dot(qa[1], qb[1]) + dot(qa[2], qb[2]);
+    let w = [0.5 * (r21 - r12), 0.5 * (r02 - r20), 0.5 * (r10 - r01)];
+    let c = 0.5 * (trace - 1.0);
+    let s2 = dot(w, w);
+    let (f, theta) = if c > 0.0 && s2 < 0.0025 {
+        // arcsin(s)/s by its series; θ = arcsin(s) for c > 0.
+        let f = 1.0
+            + s2 * (1.0 / 6.0
+                + s2 * (3.0 / 40.0
+                    + s2 * (5.0 / 112.0 + s2 * (35.0 / 1152.0 + s2 * (63.0 / 2816.0)))));
+        (f, f * s2.sqrt())
+    } else {
+        let s = s2.sqrt();
+        let theta = s.atan2(c);
+        if s > 0.0 {
+            (theta / s, theta)
+        } else {
+            // s = 0 and c < 0: a half turn; the axis is not recoverable from w. Callers treat
+            // θ > 0.9π as a guard failure before using Θ.
+            (0.0, std::f64::consts::PI)
+        }
+    };
+    ([f * w[0], f * w[1], f * w[2]], theta)
+}
+
+/// Largest entry of |Q Qᵀ − I|: the orthonormality defect of a director matrix.
+pub fn orthonormality_defect(q: &Mat3) -> f64 {
+    let g = mat_mul_t(q, q);
+    let mut d: f64 = 0.0;
+    for (r, row) in g.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            let target = if r == c { 1.0 } else { 0.0 };
+            d = d.max((v - target).abs());
+        }
+    }
+    d
+}
+
+/// One Björck step towards the nearest orthonormal matrix: Q ← ½ Q (3I − QᵀQ) (spec §5).
+/// Exact zeros of a planar frame stay exact zeros.
+pub fn bjorck(q: &Mat3) -> Mat3 {
+    let qtq = mat_mul(&transpose(q), q);
+    let mut m = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for c in 0..3 {
+            m[r][c] = if r == c { 3.0 } else { 0.0 } - qtq[r][c];
+        }
+    }
+    let p = mat_mul(q, &m);
+    let mut out = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for c in 0..3 {
+            out[r][c] = 0.5 * p[r][c];
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn skew(a: Vec3) -> Mat3 {
+        [[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]]
+    }
+
+    /// Reference exp of a skew matrix by a long Taylor series with scaling and squaring.
+    fn expm_reference(a: Vec3) -> Mat3 {
+        let k = 2;
+        let sc = 1.0 / f64::from(1 << k);
+        let m = skew(scale(sc, a));
+        let mut term = IDENTITY;
+        let mut sum = IDENTITY;
+        for n in 1..30 {
+            term = mat_mul(&term, &m);
+            for row in term.iter_mut() {
+                for v in row.iter_mut() {
+                    *v /= n as f64;
+                }
+            }
+            for r in 0..3 {
+                for c in 0..3 {
+                    sum[r][c] += term[r][c];
+                }
+            }
+        }
+        for _ in 0..k {
+            sum = mat_mul(&sum, &sum);
+        }
+        sum
+    }
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+
+    fn random_vec(seed: &mut u64, max_norm: f64) -> Vec3 {
+        loop {
+            let v = [
+                2.0 * lcg(seed) - 1.0,
+                2.0 * lcg(seed) - 1.0,
+                2.0 * lcg(seed) - 1.0,
+            ];
+            let n = norm(v);
+            if n > 1e-3 && n <= 1.0 {
+                return scale(max_norm * lcg(seed) / n, v);
+            }
+        }
+    }
+
+    // Spec §13 (i1): Rodrigues agrees with an independent matrix exponential to 1e-14, on both
+    // sides of the series/libm switch at θ = 0.1.
+    #[test]
+    fn rodrigues_matches_reference_exponential() {
+        let mut seed = 7;
+        let mut cases: Vec<Vec3> = (0..2000).map(|_| random_vec(&mut seed, 3.0)).collect();
+        for t in [0.0, 1e-9, 0.0999999999, 0.1, 0.1000000001] {
+            cases.push([t, 0.0, 0.0]);
+            cases.push(scale(t / 3f64.sqrt(), [1.0, -1.0, 1.0]));
+        }
+        for a in cases {
+            let r = exp_neg_skew(a);
+            let reference = expm_reference(scale(-1.0, a));
+            for i in 0..3 {
+                for j in 0..3 {
+                    assert!((r[i][j] - reference[i][j]).abs() < 1e-14, "a = {a:?}");
+                }
+            }
+        }
+    }
+
+    // Spec §13 (i2): Log(exp([a]×)) = a for |a| ≤ 0.9π, across the series branch at s = 0.05.
+    #[test]
+    fn log_inverts_exp() {
+        let mut seed = 11;
+        let mut cases: Vec<Vec3> = (0..2000).map(|_| random_vec(&mut seed, 0.9 * std::f64::consts::PI)).collect();
+        for t in [0.0, 1e-12, 0.0499, 0.05, 0.0501, 0.05002] {
+            cases.push([0.0, t, 0.0]);
+            cases.push(scale(t / 2f64.sqrt(), [1.0, 0.0, -1.0]));
+        }
+        for a in cases {
+            // exp([a]x) = exp(-[-a]x)
+            let r = exp_neg_skew(scale(-1.0, a));
+            let (theta_vec, theta) = log_relative(&r, &IDENTITY);
+            let err = norm(sub(theta_vec, a));
+            assert!(err <= 1e-13 * norm(a) + 1e-16, "a = {a:?}, err = {err:e}");
+            assert!((theta - norm(a)).abs() <= 1e-13 * norm(a) + 1e-16);
+        }
+    }
+
+    // Spec §13 (i5): 1e6 successive small random rotations keep Q orthonormal to 1e-12.
+    #[test]
+    fn repeated_rotations_stay_orthonormal() {
+        let mut seed = 3;
+        let mut q = IDENTITY;
+        for _ in 0..1_000_000 {
+            q = mat_mul(&exp_neg_skew(random_vec(&mut seed, 0.1)), &q);
+        }
+        assert!(orthonormality_defect(&q) < 1e-12, "{}", orthonormality_defect(&q));
+    }
+
+    #[test]
+    fn bjorck_restores_orthonormality_and_keeps_planar_zeros() {
+        let mut q = [[0.0, 1.0 + 1e-9, 0.0], [0.0, 0.0, 1.0], [1.0, 2e-9, 0.0]];
+        q = bjorck(&q);
+        assert!(orthonormality_defect(&q) < 1e-15);
+        assert_eq!(q[0][2], 0.0);
+        assert_eq!(q[2][2], 0.0);
+        assert_eq!(q[1][0], 0.0);
+    }
+
+    #[test]
+    fn rotation_sense_matches_spec() {
+        // ω = (0, Ω, 0) with d2 = e_z turns d3 counter-clockwise about e_z (spec §5 check).
+        let q = [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]];
+        let q1 = mat_mul(&exp_neg_skew([0.0, 0.01, 0.0]), &q);
+        assert!(q1[2][1] > 0.0 && (q1[2][1] - 0.01f64.sin()).abs() < 1e-15);
+    }
+}
