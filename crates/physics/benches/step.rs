@@ -1,4 +1,5 @@
 //! Criterion benchmark: µs per step of the paper's arm (damping + tip force) for N = 25..400.
+#![allow(missing_docs)] // criterion_group! generates an undocumented public function
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use octoarm_physics::{Damping, Load, Settings, Simulation, StraightRod};
 

@@ -9,11 +9,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     sim.set_damping(Damping::mass_proportional(10.0))?;
     sim.add_load(Load::tip_force(100, [0.0, 2e-5, 0.0]))?;
     let start = std::time::Instant::now();
-    println!("{:>6} {:>10} {:>10} {:>12}", "t [s]", "tip x [m]", "tip y [m]", "H [J]");
+    println!(
+        "{:>6} {:>10} {:>10} {:>12}",
+        "t [s]", "tip x [m]", "tip y [m]", "H [J]"
+    );
     for _ in 0..10 {
         sim.run(10_000)?;
         let tip = sim.state.tip();
-        println!("{:6.2} {:10.5} {:10.5} {:12.4e}", sim.state.time, tip[0], tip[1], sim.energies().total());
+        println!(
+            "{:6.2} {:10.5} {:10.5} {:12.4e}",
+            sim.state.time,
+            tip[0],
+            tip[1],
+            sim.energies().total()
+        );
     }
     let us = start.elapsed().as_secs_f64() * 1e6 / sim.steps() as f64;
     println!("{} steps, {us:.2} µs per step", sim.steps());

@@ -22,7 +22,11 @@ pub struct Sphere {
 impl Sphere {
     /// A fixed sphere.
     pub fn fixed(center: Vec3, radius: f64) -> Self {
-        Self { center, radius, velocity: [0.0; 3] }
+        Self {
+            center,
+            radius,
+            velocity: [0.0; 3],
+        }
     }
 
     /// Centre at time t.
@@ -54,7 +58,10 @@ pub struct ContactParams {
 
 impl Default for ContactParams {
     fn default() -> Self {
-        Self { beta: 1.0, zeta: 0.5 }
+        Self {
+            beta: 1.0,
+            zeta: 0.5,
+        }
     }
 }
 
@@ -81,7 +88,11 @@ fn element_hit(model: &RodModel, s: &RodState, j: usize, c: Vec3, radius: f64) -
     let l2 = dot(dx, dx);
     let l = l2.sqrt();
     let r = model.radius[j] / (l / model.rest_length[j]).sqrt();
-    let mid = [xa[0] + 0.5 * dx[0], xa[1] + 0.5 * dx[1], xa[2] + 0.5 * dx[2]];
+    let mid = [
+        xa[0] + 0.5 * dx[0],
+        xa[1] + 0.5 * dx[1],
+        xa[2] + 0.5 * dx[2],
+    ];
     if norm(sub(mid, c)) > radius + r + l {
         return None;
     }
@@ -93,7 +104,11 @@ fn element_hit(model: &RodModel, s: &RodState, j: usize, c: Vec3, radius: f64) -
     if g <= 0.0 || dist == 0.0 {
         return None;
     }
-    Some(Hit { u, normal: scale(1.0 / dist, d), penetration: g })
+    Some(Hit {
+        u,
+        normal: scale(1.0 / dist, d),
+        penetration: g,
+    })
 }
 
 /// Add the contact forces of every sphere on the rod to `out` (state at time t).
@@ -109,7 +124,9 @@ pub fn add_contact_forces(
     for sphere in spheres {
         let c = sphere.center_at(t);
         for j in 0..model.n_elements {
-            let Some(hit) = element_hit(model, s, j, c, sphere.radius) else { continue };
+            let Some(hit) = element_hit(model, s, j, c, sphere.radius) else {
+                continue;
+            };
             let k = params.beta * e_mod * model.area[j] / model.rest_length[j];
             let damping = 2.0 * params.zeta * (k * model.element_mass[j]).sqrt();
             let (va, vb) = (s.velocity[j], s.velocity[j + 1]);
@@ -129,13 +146,19 @@ pub fn add_contact_forces(
 }
 
 /// Elastic energy stored in the penalty springs, Σ ½ k g² [J] (for Lyapunov and energy checks).
-pub fn contact_energy(model: &RodModel, s: &RodState, spheres: &[Sphere], params: &ContactParams) -> f64 {
+pub fn contact_energy(
+    model: &RodModel,
+    s: &RodState,
+    spheres: &[Sphere],
+    params: &ContactParams,
+) -> f64 {
     let mut energy = 0.0;
     for sphere in spheres {
         let c = sphere.center_at(s.time);
         for j in 0..model.n_elements {
             if let Some(hit) = element_hit(model, s, j, c, sphere.radius) {
-                let k = params.beta * model.material.youngs_modulus * model.area[j] / model.rest_length[j];
+                let k = params.beta * model.material.youngs_modulus * model.area[j]
+                    / model.rest_length[j];
                 energy += 0.5 * k * hit.penetration * hit.penetration;
             }
         }

@@ -43,12 +43,18 @@ pub enum AnalyticalDamper {
 impl Damping {
     /// Mass-proportional damping at `rate` [1/s].
     pub fn mass_proportional(rate: f64) -> Self {
-        Self { rate, ..Self::default() }
+        Self {
+            rate,
+            ..Self::default()
+        }
     }
 
     /// The paper's per-length damping with coefficient `gamma` [kg/(m s)].
     pub fn per_length(gamma: f64) -> Self {
-        Self { gamma, ..Self::default() }
+        Self {
+            gamma,
+            ..Self::default()
+        }
     }
 
     /// Check every coefficient (finite, ≥ 0).
@@ -60,7 +66,10 @@ impl Damping {
             Some(AnalyticalDamper::Uniform { nu }) | Some(AnalyticalDamper::Legacy { nu }) => {
                 non_negative("damping.nu", nu)?;
             }
-            Some(AnalyticalDamper::Physical { translational, rotational }) => {
+            Some(AnalyticalDamper::Physical {
+                translational,
+                rotational,
+            }) => {
                 non_negative("damping.translational", translational)?;
                 non_negative("damping.rotational", rotational)?;
             }
@@ -114,20 +123,51 @@ impl KickFactors {
         self.key = key;
         let nn = model.n_nodes();
         let ne = model.n_elements;
-        self.node_rate = (0..nn).map(|i| damping.node_rate(model, i)).collect();
-        self.node_decay = self.node_rate.iter().map(|l| (-l * dt).exp()).collect();
-        self.node_kick = self.node_rate.iter().map(|l| dt * phi1(l * dt)).collect();
-        self.element_rate0 = (0..ne).map(|j| damping.element_rate(model, j, 1.0)).collect();
-        self.element_decay0 = self.element_rate0.iter().map(|l| (-l * dt).exp()).collect();
-        self.element_kick0 = self.element_rate0.iter().map(|l| dt * phi1(l * dt)).collect();
-        self.element_gamma_rate = (0..ne).map(|j| damping.gamma / (model.material.density * model.area[j])).collect();
+        // Refill in place: after the first call (from `Simulation::new`) a change of damping or
+        // dt between steps reuses the buffers, so no step allocates.
+        let refill = |buf: &mut Vec<f64>, values: &mut dyn Iterator<Item = f64>| {
+            buf.clear();
+            buf.extend(values);
+        };
+        refill(
+            &mut self.node_rate,
+            &mut (0..nn).map(|i| damping.node_rate(model, i)),
+        );
+        refill(
+            &mut self.node_decay,
+            &mut self.node_rate.iter().map(|l| (-l * dt).exp()),
+        );
+        refill(
+            &mut self.node_kick,
+            &mut self.node_rate.iter().map(|l| dt * phi1(l * dt)),
+        );
+        refill(
+            &mut self.element_rate0,
+            &mut (0..ne).map(|j| damping.element_rate(model, j, 1.0)),
+        );
+        refill(
+            &mut self.element_decay0,
+            &mut self.element_rate0.iter().map(|l| (-l * dt).exp()),
+        );
+        refill(
+            &mut self.element_kick0,
+            &mut self.element_rate0.iter().map(|l| dt * phi1(l * dt)),
+        );
+        refill(
+            &mut self.element_gamma_rate,
+            &mut (0..ne).map(|j| damping.gamma / (model.material.density * model.area[j])),
+        );
     }
 
     /// Decay and kick factors of element j at dilatation e, and its rate.
     #[inline(always)]
     pub fn element(&self, j: usize, e: f64, dt: f64, gamma_active: bool) -> (f64, f64, f64) {
         if !gamma_active {
-            return (self.element_decay0[j], self.element_kick0[j], self.element_rate0[j]);
+            return (
+                self.element_decay0[j],
+                self.element_kick0[j],
+                self.element_rate0[j],
+            );
         }
         let lam0 = self.element_rate0[j];
         let lam = lam0 + (e - 1.0) * self.element_gamma_rate[j];
@@ -138,7 +178,11 @@ impl KickFactors {
             (-lam * dt).exp()
         };
         let z = lam * dt;
-        let kick = if z < 1e-4 { dt * (1.0 - z / 2.0 + z * z / 6.0) } else { dt * (1.0 - decay) / z };
+        let kick = if z < 1e-4 {
+            dt * (1.0 - z / 2.0 + z * z / 6.0)
+        } else {
+            dt * (1.0 - decay) / z
+        };
         (decay, kick, lam)
     }
 }

@@ -61,7 +61,8 @@ pub fn energies_with_rest(
         let e = l * model.inv_rest_length[j];
         let w = s.omega[j];
         let jj = model.inertia[j];
-        out.rotational += 0.5 * (jj[0] * w[0] * w[0] + jj[1] * w[1] * w[1] + jj[2] * w[2] * w[2]) / e;
+        out.rotational +=
+            0.5 * (jj[0] * w[0] * w[0] + jj[1] * w[1] * w[1] + jj[2] * w[2] * w[2]) / e;
         let m = mat_vec(&s.director[j], dx);
         let st = model.shear_stiffness[j];
         let ds = [
@@ -98,5 +99,11 @@ pub fn energies_with_rest(
 
 /// Energies of `s` against the model's own rest strains.
 pub fn energies(model: &RodModel, s: &RodState, energy_consistent: bool) -> Energies {
-    energies_with_rest(model, s, &model.rest_sigma, &model.rest_kappa, energy_consistent)
+    energies_with_rest(
+        model,
+        s,
+        &model.rest_sigma,
+        &model.rest_kappa,
+        energy_consistent,
+    )
 }

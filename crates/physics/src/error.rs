@@ -51,7 +51,11 @@ pub(crate) fn positive(field: &'static str, value: f64) -> Result<f64, ModelErro
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
-        Err(ModelError::OutOfRange { field, value, range: "(0, inf), finite" })
+        Err(ModelError::OutOfRange {
+            field,
+            value,
+            range: "(0, inf), finite",
+        })
     }
 }
 
@@ -60,7 +64,11 @@ pub(crate) fn non_negative(field: &'static str, value: f64) -> Result<f64, Model
     if value.is_finite() && value >= 0.0 {
         Ok(value)
     } else {
-        Err(ModelError::OutOfRange { field, value, range: "[0, inf), finite" })
+        Err(ModelError::OutOfRange {
+            field,
+            value,
+            range: "[0, inf), finite",
+        })
     }
 }
 
@@ -69,7 +77,11 @@ pub(crate) fn finite_vec(field: &'static str, value: [f64; 3]) -> Result<[f64; 3
     if value.iter().all(|v| v.is_finite()) {
         Ok(value)
     } else {
-        Err(ModelError::BadVector { field, value, reason: "every component must be finite" })
+        Err(ModelError::BadVector {
+            field,
+            value,
+            reason: "every component must be finite",
+        })
     }
 }
 

@@ -33,6 +33,11 @@ pub struct InternalLoads {
     // τ/ε³ and ½ D̂ κ×τ/ε³, padded to n + 1: slot k + 1 holds Voronoi point k.
     couple_pad: Vec<Vec3>,
     coupling_pad: Vec<Vec3>,
+    // Element length l and 1/l, and 1/ε³ per interior point: the square roots and divisions,
+    // computed in their own short loops so that they vectorise (spec §14).
+    length: Vec<f64>,
+    inv_length: Vec<f64>,
+    inv_eps_cubed: Vec<f64>,
 }
 
 impl InternalLoads {
@@ -51,6 +56,9 @@ impl InternalLoads {
             elem_force: vec![[0.0; 3]; n + 1],
             couple_pad: vec![[0.0; 3]; n + 1],
             coupling_pad: vec![[0.0; 3]; n + 1],
+            length: vec![0.0; n],
+            inv_length: vec![0.0; n],
+            inv_eps_cubed: vec![0.0; n - 1],
         }
     }
 
@@ -82,15 +90,34 @@ impl InternalLoads {
         let stress = &mut self.stress[..n];
         let f = &mut self.elem_force[..n + 1];
         let torque = &mut self.torque[..n];
+        let len = &mut self.length[..n];
+        let inv_len = &mut self.inv_length[..n];
+
+        // Lengths and dilatations first: a loop of square roots and divisions only, which LLVM
+        // vectorises, unlike the long element loop below.
+        for j in 0..n {
+            let dx = [
+                x[j + 1][0] - x[j][0],
+                x[j + 1][1] - x[j][1],
+                x[j + 1][2] - x[j][2],
+            ];
+            let l = dot(dx, dx).sqrt();
+            len[j] = l;
+            inv_len[j] = 1.0 / l;
+            dil[j] = l * inv_lr[j];
+        }
 
         // Loop A: geometry, shear/stretch strain (eq. 2.2), stress, element force (eq. 4.1) and
         // the element-local torques (shear–stretch coupling, gyroscopic, unsteady dilatation).
         for j in 0..n {
-            let dx = [x[j + 1][0] - x[j][0], x[j + 1][1] - x[j][1], x[j + 1][2] - x[j][2]];
-            let l = dot(dx, dx).sqrt();
-            let inv_l = 1.0 / l;
+            let dx = [
+                x[j + 1][0] - x[j][0],
+                x[j + 1][1] - x[j][1],
+                x[j + 1][2] - x[j][2],
+            ];
+            let inv_l = inv_len[j];
             let t = [dx[0] * inv_l, dx[1] * inv_l, dx[2] * inv_l];
-            let e = l * inv_lr[j];
+            let e = dil[j];
             let inv_e = lr[j] * inv_l;
             let qt = mat_vec(&q[j], t);
             let sg = [e * qt[0], e * qt[1], e * qt[2] - 1.0];
@@ -104,15 +131,26 @@ impl InternalLoads {
             let c = cross(qt, nn);
             let mut tq = [lr[j] * c[0], lr[j] * c[1], lr[j] * c[2]];
             if with_velocity_terms {
-                let dv = [v[j + 1][0] - v[j][0], v[j + 1][1] - v[j][1], v[j + 1][2] - v[j][2]];
+                let dv = [
+                    v[j + 1][0] - v[j][0],
+                    v[j + 1][1] - v[j][1],
+                    v[j + 1][2] - v[j][2],
+                ];
                 let edot = dot(t, dv) * inv_lr[j];
-                let g = [inertia[j][0] * w[j][0] * inv_e, inertia[j][1] * w[j][1] * inv_e, inertia[j][2] * w[j][2] * inv_e];
+                let g = [
+                    inertia[j][0] * w[j][0] * inv_e,
+                    inertia[j][1] * w[j][1] * inv_e,
+                    inertia[j][2] * w[j][2] * inv_e,
+                ];
                 let gw = cross(g, w[j]);
                 let r = edot * inv_e;
-                tq = [tq[0] + gw[0] + g[0] * r, tq[1] + gw[1] + g[1] * r, tq[2] + gw[2] + g[2] * r];
+                tq = [
+                    tq[0] + gw[0] + g[0] * r,
+                    tq[1] + gw[1] + g[1] * r,
+                    tq[2] + gw[2] + g[2] * r,
+                ];
             }
             tangent[j] = t;
-            dil[j] = e;
             sigma[j] = sg;
             stress[j] = nn;
             torque[j] = tq;
@@ -130,22 +168,29 @@ impl InternalLoads {
         let couple = &mut self.couple[..nk];
         let tb = &mut self.couple_pad[..n + 1];
         let hh = &mut self.coupling_pad[..n + 1];
+        let inv_e3 = &mut self.inv_eps_cubed[..nk];
+        for k in 0..nk {
+            let eps = 0.5 * (dil[k] * lr[k] + dil[k + 1] * lr[k + 1]) * inv_dr[k];
+            eps_out[k] = eps;
+            inv_e3[k] = 1.0 / (eps * eps * eps);
+        }
         for k in 0..nk {
             let (theta, _) = log_relative(&q[k + 1], &q[k]);
-            let kap = [-theta[0] * inv_dr[k], -theta[1] * inv_dr[k], -theta[2] * inv_dr[k]];
-            let eps = 0.5 * (dil[k] * lr[k] + dil[k + 1] * lr[k + 1]) * inv_dr[k];
+            let kap = [
+                -theta[0] * inv_dr[k],
+                -theta[1] * inv_dr[k],
+                -theta[2] * inv_dr[k],
+            ];
             let tau = [
                 bend[k][0] * (kap[0] - k0[k][0]),
                 bend[k][1] * (kap[1] - k0[k][1]),
                 bend[k][2] * (kap[2] - k0[k][2]),
             ];
-            let inv_e3 = 1.0 / (eps * eps * eps);
             let kt = cross(kap, tau);
-            let hf = 0.5 * dr[k] * inv_e3;
-            tb[k + 1] = [tau[0] * inv_e3, tau[1] * inv_e3, tau[2] * inv_e3];
+            let hf = 0.5 * dr[k] * inv_e3[k];
+            tb[k + 1] = [tau[0] * inv_e3[k], tau[1] * inv_e3[k], tau[2] * inv_e3[k]];
             hh[k + 1] = [kt[0] * hf, kt[1] * hf, kt[2] * hf];
             kappa[k] = kap;
-            eps_out[k] = eps;
             couple[k] = tau;
         }
         tb[0] = [0.0; 3];
@@ -157,11 +202,19 @@ impl InternalLoads {
             // Eq. 4.5: tension corrections that make the elastic loads the gradient of the
             // dilatation-scaled energies. b_k = (κ−κ°)·τ/ε⁴ feeds both neighbouring elements.
             for j in 0..n {
-                let ds = [sigma[j][0] - s0[j][0], sigma[j][1] - s0[j][1], sigma[j][2] - s0[j][2]];
+                let ds = [
+                    sigma[j][0] - s0[j][0],
+                    sigma[j][1] - s0[j][1],
+                    sigma[j][2] - s0[j][2],
+                ];
                 let mut coef = 0.5 * dot(ds, stress[j]) / (dil[j] * dil[j]);
                 for k in [j.wrapping_sub(1), j] {
                     if k < nk {
-                        let dk = [kappa[k][0] - k0[k][0], kappa[k][1] - k0[k][1], kappa[k][2] - k0[k][2]];
+                        let dk = [
+                            kappa[k][0] - k0[k][0],
+                            kappa[k][1] - k0[k][1],
+                            kappa[k][2] - k0[k][2],
+                        ];
                         coef += 0.75 * dot(dk, couple[k]) / eps_out[k].powi(4);
                     }
                 }
@@ -182,7 +235,11 @@ impl InternalLoads {
         let force = &mut self.force[..n + 1];
         force[0] = f[0];
         for i in 1..=n {
-            force[i] = [f[i][0] - f[i - 1][0], f[i][1] - f[i - 1][1], f[i][2] - f[i - 1][2]];
+            force[i] = [
+                f[i][0] - f[i - 1][0],
+                f[i][1] - f[i - 1][1],
+                f[i][2] - f[i - 1][2],
+            ];
         }
     }
 }
@@ -197,15 +254,25 @@ pub struct ElasticLoads {
 impl ElasticLoads {
     /// Buffers for a rod of `n` elements.
     pub fn new(n_elements: usize) -> Self {
-        Self { inner: InternalLoads::new(n_elements) }
+        Self {
+            inner: InternalLoads::new(n_elements),
+        }
     }
 
     /// Evaluate the elastic nodal forces (lab) and element couples (material) of `s` with the
     /// given rest strains. Panics if the slice lengths do not match the model.
-    pub fn compute(&mut self, model: &RodModel, s: &RodState, rest_sigma: &[Vec3], rest_kappa: &[Vec3], energy_consistent: bool) {
+    pub fn compute(
+        &mut self,
+        model: &RodModel,
+        s: &RodState,
+        rest_sigma: &[Vec3],
+        rest_kappa: &[Vec3],
+        energy_consistent: bool,
+    ) {
         assert_eq!(rest_sigma.len(), model.n_elements, "rest_sigma length");
         assert_eq!(rest_kappa.len(), model.n_interior(), "rest_kappa length");
-        self.inner.compute(model, s, rest_sigma, rest_kappa, false, energy_consistent);
+        self.inner
+            .compute(model, s, rest_sigma, rest_kappa, false, energy_consistent);
     }
 
     /// Nodal forces of the last evaluation [N], lab frame.
@@ -214,6 +281,7 @@ impl ElasticLoads {
     }
 
     /// Element couples of the last evaluation [N m], material frame.
+    #[allow(clippy::misnamed_getters)] // the elastic couple is the element torque buffer
     pub fn couple(&self) -> &[Vec3] {
         &self.inner.torque
     }
@@ -235,7 +303,11 @@ pub fn strains(model: &RodModel, s: &RodState, sigma: &mut [Vec3], kappa: &mut [
             s.position[j + 1][2] - s.position[j][2],
         ];
         let m = mat_vec(&s.director[j], dx);
-        sigma[j] = [m[0] * model.inv_rest_length[j], m[1] * model.inv_rest_length[j], m[2] * model.inv_rest_length[j] - 1.0];
+        sigma[j] = [
+            m[0] * model.inv_rest_length[j],
+            m[1] * model.inv_rest_length[j],
+            m[2] * model.inv_rest_length[j] - 1.0,
+        ];
     }
     for k in 0..n - 1 {
         let (theta, _) = log_relative(&s.director[k + 1], &s.director[k]);

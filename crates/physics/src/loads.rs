@@ -19,7 +19,10 @@ pub struct ExternalLoads {
 impl ExternalLoads {
     /// Zero loads for a rod of `n` elements.
     pub fn zeros(n_elements: usize) -> Self {
-        Self { force: vec![[0.0; 3]; n_elements + 1], couple: vec![[0.0; 3]; n_elements] }
+        Self {
+            force: vec![[0.0; 3]; n_elements + 1],
+            couple: vec![[0.0; 3]; n_elements],
+        }
     }
 
     /// Reset to zero without reallocating.
@@ -75,27 +78,49 @@ pub enum Load {
 impl Load {
     /// A tip force on node n of a rod with `n_elements` elements.
     pub fn tip_force(n_elements: usize, force: Vec3) -> Self {
-        Load::NodeForce { node: n_elements, force, ramp_time: 0.0 }
+        Load::NodeForce {
+            node: n_elements,
+            force,
+            ramp_time: 0.0,
+        }
     }
 
     /// A lab-frame tip couple on element n − 1.
     pub fn tip_couple(n_elements: usize, couple: Vec3) -> Self {
-        Load::ElementCouple { element: n_elements - 1, couple, ramp_time: 0.0 }
+        Load::ElementCouple {
+            element: n_elements - 1,
+            couple,
+            ramp_time: 0.0,
+        }
     }
 
     /// Check indices and values against the model.
     pub fn validate(&self, model: &RodModel) -> Result<(), ModelError> {
         match *self {
             Load::Gravity { acceleration } => finite_vec("gravity", acceleration).map(|_| ()),
-            Load::NodeForce { node, force, ramp_time } => {
+            Load::NodeForce {
+                node,
+                force,
+                ramp_time,
+            } => {
                 if node > model.n_elements {
-                    return Err(ModelError::CountOutOfRange { field: "node", value: node, range: "[0, n_elements]" });
+                    return Err(ModelError::CountOutOfRange {
+                        field: "node",
+                        value: node,
+                        range: "[0, n_elements]",
+                    });
                 }
                 finite_vec("force", force)?;
                 non_negative("ramp_time", ramp_time).map(|_| ())
             }
-            Load::UniformForce { force_per_length } => finite_vec("force_per_length", force_per_length).map(|_| ()),
-            Load::ElementCouple { element, couple, ramp_time } => {
+            Load::UniformForce { force_per_length } => {
+                finite_vec("force_per_length", force_per_length).map(|_| ())
+            }
+            Load::ElementCouple {
+                element,
+                couple,
+                ramp_time,
+            } => {
                 if element >= model.n_elements {
                     return Err(ModelError::CountOutOfRange {
                         field: "element",
@@ -106,7 +131,8 @@ impl Load {
                 finite_vec("couple", couple)?;
                 non_negative("ramp_time", ramp_time).map(|_| ())
             }
-            Load::UniformCouple { couple_per_length } | Load::FollowerCouple { couple_per_length } => {
+            Load::UniformCouple { couple_per_length }
+            | Load::FollowerCouple { couple_per_length } => {
                 finite_vec("couple_per_length", couple_per_length).map(|_| ())
             }
         }
@@ -114,7 +140,13 @@ impl Load {
 
     /// Add this load, evaluated at time `t` with the state `s`, to `out`.
     pub fn apply(&self, model: &RodModel, s: &RodState, t: f64, out: &mut ExternalLoads) {
-        let ramp = |ramp_time: f64| if ramp_time > 0.0 { (t / ramp_time).clamp(0.0, 1.0) } else { 1.0 };
+        let ramp = |ramp_time: f64| {
+            if ramp_time > 0.0 {
+                (t / ramp_time).clamp(0.0, 1.0)
+            } else {
+                1.0
+            }
+        };
         match *self {
             Load::Gravity { acceleration: g } => {
                 for (f, m) in out.force.iter_mut().zip(&model.node_mass) {
@@ -123,20 +155,30 @@ impl Load {
                     }
                 }
             }
-            Load::NodeForce { node, force, ramp_time } => {
+            Load::NodeForce {
+                node,
+                force,
+                ramp_time,
+            } => {
                 let k = ramp(ramp_time);
                 for c in 0..3 {
                     out.force[node][c] += k * force[c];
                 }
             }
-            Load::UniformForce { force_per_length: p } => {
+            Load::UniformForce {
+                force_per_length: p,
+            } => {
                 for (f, l) in out.force.iter_mut().zip(&model.nodal_rest_length) {
                     for c in 0..3 {
                         f[c] += p[c] * l;
                     }
                 }
             }
-            Load::ElementCouple { element, couple, ramp_time } => {
+            Load::ElementCouple {
+                element,
+                couple,
+                ramp_time,
+            } => {
                 let k = ramp(ramp_time);
                 let m = mat_vec(&s.director[element], couple);
                 for c in 0..3 {

@@ -100,26 +100,63 @@ pub fn transpose(a: &Mat3) -> Mat3 {
     ]
 }
 
+/// Largest |a|² for which `exp_neg_skew` uses the Taylor series of its coefficients (|a| < 0.1).
+pub const EXP_SERIES_MAX_SQ: f64 = 0.01;
+
 /// The rotation exp(−[a]×) by Rodrigues' formula (spec eq. 5.2–5.3). For |a| < 0.1 the
 /// coefficients come from their Taylor series (error < 1e-17), so no libm call is made there.
 #[inline(always)]
 pub fn exp_neg_skew(a: Vec3) -> Mat3 {
     let t2 = dot(a, a);
-    let (s, c) = if t2 < 0.01 {
-        let s = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0)));
-        let c = 0.5 * (1.0 - t2 / 12.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0 * (1.0 - t2 / 90.0))));
-        (s, c)
+    if t2 < EXP_SERIES_MAX_SQ {
+        exp_neg_skew_series(a)
     } else {
         let t = t2.sqrt();
-        (t.sin() / t, (1.0 - t.cos()) / t2)
-    };
+        rodrigues(a, t.sin() / t, (1.0 - t.cos()) / t2)
+    }
+}
+
+/// `exp_neg_skew` by the series branch only: bit-identical to it for |a|² < `EXP_SERIES_MAX_SQ`,
+/// branch-free so that loops over many frames vectorise. Callers check the bound first.
+#[inline(always)]
+pub fn exp_neg_skew_series(a: Vec3) -> Mat3 {
+    let t2 = dot(a, a);
+    let s = 1.0
+        - t2 * (1.0 / 6.0)
+            * (1.0 - t2 * (1.0 / 20.0) * (1.0 - t2 * (1.0 / 42.0) * (1.0 - t2 * (1.0 / 72.0))));
+    let c = 0.5
+        * (1.0
+            - t2 * (1.0 / 12.0)
+                * (1.0
+                    - t2 * (1.0 / 30.0) * (1.0 - t2 * (1.0 / 56.0) * (1.0 - t2 * (1.0 / 90.0)))));
+    rodrigues(a, s, c)
+}
+
+/// I − s[a]× + c[a]×² with s = sin θ/θ, c = (1 − cos θ)/θ².
+#[inline(always)]
+fn rodrigues(a: Vec3, s: f64, c: f64) -> Mat3 {
     let (a0, a1, a2) = (a[0], a[1], a[2]);
     [
-        [1.0 - c * (a1 * a1 + a2 * a2), s * a2 + c * a0 * a1, -s * a1 + c * a0 * a2],
-        [-s * a2 + c * a0 * a1, 1.0 - c * (a0 * a0 + a2 * a2), s * a0 + c * a1 * a2],
-        [s * a1 + c * a0 * a2, -s * a0 + c * a1 * a2, 1.0 - c * (a0 * a0 + a1 * a1)],
+        [
+            1.0 - c * (a1 * a1 + a2 * a2),
+            s * a2 + c * a0 * a1,
+            -s * a1 + c * a0 * a2,
+        ],
+        [
+            -s * a2 + c * a0 * a1,
+            1.0 - c * (a0 * a0 + a2 * a2),
+            s * a0 + c * a1 * a2,
+        ],
+        [
+            s * a1 + c * a0 * a2,
+            -s * a0 + c * a1 * a2,
+            1.0 - c * (a0 * a0 + a1 * a1),
+        ],
     ]
 }
+
+/// Largest s² = sin²θ for which `log_relative` uses the series of arcsin(s)/s (θ < 0.05 rad).
+pub const LOG_SERIES_MAX_SQ: f64 = 0.0025;
 
 /// Rotation vector Θ of R = Q_a Q_bᵀ (so that R = exp([Θ]×)), from the rows of the two
 /// director matrices without forming R (spec §2, "numerically safe Log"). Returns Θ and the
@@ -137,7 +174,7 @@ pub fn log_relative(qa: &Mat3, qb: &Mat3) -> (Vec3, f64) {
     let w = [0.5 * (r21 - r12), 0.5 * (r02 - r20), 0.5 * (r10 - r01)];
     let c = 0.5 * (trace - 1.0);
     let s2 = dot(w, w);
-    let (f, theta) = if c > 0.0 && s2 < 0.0025 {
+    let (f, theta) = if c > 0.0 && s2 < LOG_SERIES_MAX_SQ {
         // arcsin(s)/s by its series; θ = arcsin(s) for c > 0.
         let f = 1.0
             + s2 * (1.0 / 6.0
@@ -226,7 +263,9 @@ mod tests {
     }
 
     fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
     }
 
@@ -269,7 +308,9 @@ mod tests {
     #[test]
     fn log_inverts_exp() {
         let mut seed = 11;
-        let mut cases: Vec<Vec3> = (0..2000).map(|_| random_vec(&mut seed, 0.9 * std::f64::consts::PI)).collect();
+        let mut cases: Vec<Vec3> = (0..2000)
+            .map(|_| random_vec(&mut seed, 0.9 * std::f64::consts::PI))
+            .collect();
         for t in [0.0, 1e-12, 0.0499, 0.05, 0.0501, 0.05002] {
             cases.push([0.0, t, 0.0]);
             cases.push(scale(t / 2f64.sqrt(), [1.0, 0.0, -1.0]));
@@ -292,7 +333,11 @@ mod tests {
         for _ in 0..1_000_000 {
             q = mat_mul(&exp_neg_skew(random_vec(&mut seed, 0.1)), &q);
         }
-        assert!(orthonormality_defect(&q) < 1e-12, "{}", orthonormality_defect(&q));
+        assert!(
+            orthonormality_defect(&q) < 1e-12,
+            "{}",
+            orthonormality_defect(&q)
+        );
     }
 
     #[test]

@@ -102,10 +102,18 @@ impl RodModel {
         material.validate()?;
         let n = rest_length.len();
         if n < 2 {
-            return Err(ModelError::CountOutOfRange { field: "n_elements", value: n, range: "[2, inf)" });
+            return Err(ModelError::CountOutOfRange {
+                field: "n_elements",
+                value: n,
+                range: "[2, inf)",
+            });
         }
         if radius.len() != n {
-            return Err(ModelError::BadLength { field: "radius", len: radius.len(), expected: n });
+            return Err(ModelError::BadLength {
+                field: "radius",
+                len: radius.len(),
+                expected: n,
+            });
         }
         for &l in rest_length {
             positive("rest_length", l)?;
@@ -113,7 +121,12 @@ impl RodModel {
         for &r in radius {
             positive("radius", r)?;
         }
-        let Material { density: rho, youngs_modulus: e, shear_modulus: g, shear_coefficient: alpha } = material;
+        let Material {
+            density: rho,
+            youngs_modulus: e,
+            shear_modulus: g,
+            shear_coefficient: alpha,
+        } = material;
         let area: Vec<f64> = radius.iter().map(|r| PI * r * r).collect();
         let second_moment: Vec<Vec3> = area
             .iter()
@@ -138,9 +151,17 @@ impl RodModel {
         let inertia: Vec<Vec3> = (0..n)
             .map(|j| scale(rho * rest_length[j], second_moment[j]))
             .collect();
-        let shear_stiffness: Vec<Vec3> = area.iter().map(|a| [alpha * g * a, alpha * g * a, e * a]).collect();
-        let element_bend: Vec<Vec3> = second_moment.iter().map(|i| [e * i[0], e * i[1], g * i[2]]).collect();
-        let rest_voronoi_length: Vec<f64> = (0..n - 1).map(|k| 0.5 * (rest_length[k] + rest_length[k + 1])).collect();
+        let shear_stiffness: Vec<Vec3> = area
+            .iter()
+            .map(|a| [alpha * g * a, alpha * g * a, e * a])
+            .collect();
+        let element_bend: Vec<Vec3> = second_moment
+            .iter()
+            .map(|i| [e * i[0], e * i[1], g * i[2]])
+            .collect();
+        let rest_voronoi_length: Vec<f64> = (0..n - 1)
+            .map(|k| 0.5 * (rest_length[k] + rest_length[k + 1]))
+            .collect();
         let bend_stiffness: Vec<Vec3> = (0..n - 1)
             .map(|k| {
                 let (la, lb) = (rest_length[k], rest_length[k + 1]);
@@ -158,7 +179,10 @@ impl RodModel {
             inv_rest_length: rest_length.iter().map(|l| 1.0 / l).collect(),
             inv_rest_voronoi: rest_voronoi_length.iter().map(|d| 1.0 / d).collect(),
             inv_node_mass: node_mass.iter().map(|m| 1.0 / m).collect(),
-            inv_inertia: inertia.iter().map(|j| [1.0 / j[0], 1.0 / j[1], 1.0 / j[2]]).collect(),
+            inv_inertia: inertia
+                .iter()
+                .map(|j| [1.0 / j[0], 1.0 / j[1], 1.0 / j[2]])
+                .collect(),
             rest_length: rest_length.to_vec(),
             rest_voronoi_length,
             nodal_rest_length,
@@ -208,7 +232,8 @@ impl RodModel {
         let mut w2: f64 = 0.0;
         for j in 0..self.n_elements {
             let axial = 4.0 * m.youngs_modulus / (m.density * self.rest_length[j].powi(2));
-            let shear_rot = 4.0 * PI * m.shear_coefficient * m.shear_modulus / (m.density * self.area[j]);
+            let shear_rot =
+                4.0 * PI * m.shear_coefficient * m.shear_modulus / (m.density * self.area[j]);
             w2 = w2.max(axial + shear_rot);
         }
         w2.sqrt()
@@ -228,10 +253,18 @@ impl RodModel {
     /// or non-finite entries, leaving the model unchanged.
     pub fn set_rest_strains(&mut self, sigma: &[Vec3], kappa: &[Vec3]) -> Result<(), ModelError> {
         if sigma.len() != self.n_elements {
-            return Err(ModelError::BadLength { field: "rest_sigma", len: sigma.len(), expected: self.n_elements });
+            return Err(ModelError::BadLength {
+                field: "rest_sigma",
+                len: sigma.len(),
+                expected: self.n_elements,
+            });
         }
         if kappa.len() != self.n_interior() {
-            return Err(ModelError::BadLength { field: "rest_kappa", len: kappa.len(), expected: self.n_interior() });
+            return Err(ModelError::BadLength {
+                field: "rest_kappa",
+                len: kappa.len(),
+                expected: self.n_interior(),
+            });
         }
         for v in sigma {
             finite_vec("rest_sigma", *v)?;
@@ -320,7 +353,11 @@ impl StraightRod {
     /// Validate every field and build the model and its straight rest state (at rest, t = 0).
     pub fn build(&self) -> Result<(RodModel, RodState), ModelError> {
         if self.n_elements < 2 {
-            return Err(ModelError::CountOutOfRange { field: "n_elements", value: self.n_elements, range: "[2, inf)" });
+            return Err(ModelError::CountOutOfRange {
+                field: "n_elements",
+                value: self.n_elements,
+                range: "[2, inf)",
+            });
         }
         positive("length", self.length)?;
         positive("base_diameter", self.base_diameter)?;
@@ -338,7 +375,14 @@ impl StraightRod {
             });
         }
         // Remove the residual non-orthogonality so that the frame is orthonormal to round-off.
-        let d1 = unit("normal", [d1[0] - dot(d1, d3) * d3[0], d1[1] - dot(d1, d3) * d3[1], d1[2] - dot(d1, d3) * d3[2]])?;
+        let d1 = unit(
+            "normal",
+            [
+                d1[0] - dot(d1, d3) * d3[0],
+                d1[1] - dot(d1, d3) * d3[1],
+                d1[2] - dot(d1, d3) * d3[2],
+            ],
+        )?;
         let d2 = cross(d3, d1);
         let n = self.n_elements;
         let dl = self.length / n as f64;
@@ -348,7 +392,8 @@ impl StraightRod {
                 0.5 * (self.tip_diameter * s + self.base_diameter * (self.length - s)) / self.length
             })
             .collect();
-        let mut model = RodModel::from_elements(&vec![dl; n], &radius, self.material, self.boundary)?;
+        let mut model =
+            RodModel::from_elements(&vec![dl; n], &radius, self.material, self.boundary)?;
         model.rest_kappa = vec![self.rest_curvature; n - 1];
         let frame: Mat3 = [d1, d2, d3];
         let position = (0..=n)
@@ -378,7 +423,11 @@ fn unit(field: &'static str, v: Vec3) -> Result<Vec3, ModelError> {
     if l > 0.0 && l.is_finite() {
         Ok(scale(1.0 / l, v))
     } else {
-        Err(ModelError::BadVector { field, value: v, reason: "must have non-zero length" })
+        Err(ModelError::BadVector {
+            field,
+            value: v,
+            reason: "must have non-zero length",
+        })
     }
 }
 
@@ -430,7 +479,11 @@ mod tests {
         arm.material.shear_coefficient = 4.0 / 3.0;
         let (m, _) = arm.build().unwrap();
         // Spec §11: combined estimate 11712 rad/s -> 1.71e-4 s for alpha_c = 4/3.
-        assert!(rel(m.max_frequency(), 11712.0) < 1e-3, "{}", m.max_frequency());
+        assert!(
+            rel(m.max_frequency(), 11712.0) < 1e-3,
+            "{}",
+            m.max_frequency()
+        );
         let (m, _) = StraightRod::paper_arm().build().unwrap();
         assert!(rel(m.stable_dt(), 1.97e-4) < 5e-3, "{}", m.stable_dt());
     }

@@ -1,0 +1,342 @@
+//! Figures drawn from recorded data only: `shapes.png` (centrelines over time, coloured by time,
+//! equal axes, obstacles outlined) and `energy.png` (energies, work and dissipation over time).
+//! Text uses DejaVu Sans compiled into the binary, so no system font is ever looked up.
+
+use crate::recorder::Recorder;
+use crate::scenario::ObstacleConfig;
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+use std::path::Path;
+use std::sync::Once;
+
+static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+
+fn ensure_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The font is a known-good TTF shipped in the crate; failure would be a build mistake.
+        if register_font("sans-serif", FontStyle::Normal, FONT).is_err() {
+            panic!("assets/DejaVuSans.ttf is not a valid font");
+        }
+    });
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("{e:?}")
+}
+
+/// Viridis colour map, `u` in [0, 1] (perceptually uniform, readable in grey).
+pub fn viridis(u: f64) -> RGBColor {
+    const STOPS: [(f64, f64, f64); 6] = [
+        (68.0, 1.0, 84.0),
+        (65.0, 68.0, 135.0),
+        (42.0, 120.0, 142.0),
+        (34.0, 168.0, 132.0),
+        (122.0, 209.0, 81.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let x = u.clamp(0.0, 1.0) * (STOPS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(STOPS.len() - 2);
+    let f = x - i as f64;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    let mix = |p: f64, q: f64| (p + f * (q - p)).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+const AXIS: [&str; 3] = ["x", "y", "z"];
+
+/// Centrelines of the recorded frames (up to ~40, evenly spread in time, the last always
+/// included), projected on the two lab axes with the largest extent, equal scales, colour by
+/// time with a colour bar; the tip path as a thin grey line; obstacles as outlines.
+pub fn shapes_png(
+    path: &Path,
+    rec: &Recorder,
+    obstacles: &[ObstacleConfig],
+    title: &str,
+) -> Result<()> {
+    ensure_font();
+    let shapes = &rec.shapes;
+    if shapes.is_empty() {
+        return Err(anyhow!("no recorded frames"));
+    }
+    let (t0, t1) = (shapes[0].0, shapes[shapes.len() - 1].0);
+    let pick: Vec<usize> = {
+        let k = 40usize.min(shapes.len());
+        let mut v: Vec<usize> = (0..k)
+            .map(|i| i * (shapes.len() - 1) / (k - 1).max(1))
+            .collect();
+        v.dedup();
+        v
+    };
+    // Axes: the two with the largest extent over all drawn points.
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in shapes
+        .iter()
+        .flat_map(|(_, x)| x.iter())
+        .chain(rec.tip.iter())
+    {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| (hi[b] - lo[b]).total_cmp(&(hi[a] - lo[a])).then(a.cmp(&b)));
+    let (ax, ay) = if order[0] < order[1] {
+        (order[0], order[1])
+    } else {
+        (order[1], order[0])
+    };
+    for o in obstacles {
+        let r = 0.5 * o.diameter;
+        for c in [ax, ay] {
+            lo[c] = lo[c].min(o.center[c] - r);
+            hi[c] = hi[c].max(o.center[c] + r);
+        }
+    }
+
+    let (width, height) = (1000u32, 800u32);
+    let root = BitMapBackend::new(path, (width, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let root = root
+        .titled(&format!("{title}: centrelines"), ("sans-serif", 26))
+        .map_err(err)?;
+    let (main, bar) = root.split_horizontally(width - 130);
+    let (margin, xlab, ylab) = (20u32, 55u32, 85u32);
+    let (pw, ph) = main.dim_in_pixel();
+    let (plot_w, plot_h) = (
+        (pw - 2 * margin - ylab) as f64,
+        (ph - 2 * margin - xlab) as f64,
+    );
+    // Equal scales: widen the shorter range about its centre until metres per pixel agree.
+    let pad = 0.05 * (hi[ax] - lo[ax]).max(hi[ay] - lo[ay]).max(1e-6);
+    let (mut x0, mut x1) = (lo[ax] - pad, hi[ax] + pad);
+    let (mut y0, mut y1) = (lo[ay] - pad, hi[ay] + pad);
+    let scale = ((x1 - x0) / plot_w).max((y1 - y0) / plot_h);
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    (x0, x1) = (cx - 0.5 * scale * plot_w, cx + 0.5 * scale * plot_w);
+    (y0, y1) = (cy - 0.5 * scale * plot_h, cy + 0.5 * scale * plot_h);
+
+    let mut chart = ChartBuilder::on(&main)
+        .margin(margin)
+        .x_label_area_size(xlab)
+        .y_label_area_size(ylab)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc(format!("{} [m]", AXIS[ax]))
+        .y_desc(format!("{} [m]", AXIS[ay]))
+        .x_label_formatter(&|v| format!("{v:.3}"))
+        .y_label_formatter(&|v| format!("{v:.3}"))
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 20))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(err)?;
+
+    for o in obstacles {
+        let r = 0.5 * o.diameter;
+        let ring: Vec<(f64, f64)> = (0..=120)
+            .map(|k| {
+                let a = k as f64 / 120.0 * std::f64::consts::TAU;
+                (o.center[ax] + r * a.cos(), o.center[ay] + r * a.sin())
+            })
+            .collect();
+        chart
+            .draw_series(std::iter::once(Polygon::new(
+                ring.clone(),
+                RGBColor(200, 200, 200).mix(0.5).filled(),
+            )))
+            .map_err(err)?;
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                ring,
+                RGBColor(120, 120, 120).stroke_width(2),
+            )))
+            .map_err(err)?;
+    }
+    let tip: Vec<(f64, f64)> = rec.tip.iter().map(|p| (p[ax], p[ay])).collect();
+    chart
+        .draw_series(LineSeries::new(
+            tip,
+            RGBColor(150, 150, 150).stroke_width(1),
+        ))
+        .map_err(err)?;
+    let span = if t1 > t0 { t1 - t0 } else { 1.0 };
+    for &i in &pick {
+        let (t, x) = &shapes[i];
+        let colour = viridis((t - t0) / span);
+        let line: Vec<(f64, f64)> = x.iter().map(|p| (p[ax], p[ay])).collect();
+        chart
+            .draw_series(LineSeries::new(line, colour.stroke_width(2)))
+            .map_err(err)?;
+    }
+    chart
+        .draw_series(std::iter::once(Circle::new((0.0, 0.0), 5, BLACK.filled())))
+        .map_err(err)?
+        .label("clamped base")
+        .legend(|(x, y)| Circle::new((x, y), 4, BLACK.filled()));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 16))
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK.mix(0.3))
+        .draw()
+        .map_err(err)?;
+
+    // Colour bar: time of each centreline.
+    let mut cb = ChartBuilder::on(&bar)
+        .margin_top(margin + 10)
+        .margin_bottom(margin + xlab)
+        .margin_right(55)
+        .y_label_area_size(0)
+        .right_y_label_area_size(50)
+        .build_cartesian_2d(0.0..1.0, t0..t0 + span)
+        .map_err(err)?;
+    cb.configure_mesh()
+        .disable_x_mesh()
+        .disable_y_mesh()
+        .disable_x_axis()
+        .y_desc("t [s]")
+        .y_label_formatter(&|v| format!("{v:.3}"))
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 20))
+        .draw()
+        .map_err(err)?;
+    let slices = 100;
+    cb.draw_series((0..slices).map(|k| {
+        let a = t0 + span * k as f64 / slices as f64;
+        let b = t0 + span * (k + 1) as f64 / slices as f64;
+        Rectangle::new(
+            [(0.0, a), (1.0, b)],
+            viridis((k as f64 + 0.5) / slices as f64).filled(),
+        )
+    }))
+    .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Kinetic, strain and total energy, external work and dissipated energy against time.
+pub fn energy_png(path: &Path, rec: &Recorder, title: &str) -> Result<()> {
+    ensure_font();
+    let t = &rec.time;
+    if t.is_empty() {
+        return Err(anyhow!("no recorded frames"));
+    }
+    let s = &rec.series;
+    let curves: [(&str, RGBColor, Vec<f64>); 5] = [
+        (
+            "kinetic K",
+            RGBColor(31, 119, 180),
+            s.iter().map(|r| r[0] + r[1]).collect(),
+        ),
+        (
+            "strain U",
+            RGBColor(255, 127, 14),
+            s.iter().map(|r| r[2] + r[3]).collect(),
+        ),
+        (
+            "total H = K + U",
+            BLACK,
+            s.iter().map(|r| r[0] + r[1] + r[2] + r[3]).collect(),
+        ),
+        (
+            "work of loads W",
+            RGBColor(44, 160, 44),
+            s.iter().map(|r| r[4]).collect(),
+        ),
+        (
+            "dissipated D",
+            RGBColor(214, 39, 40),
+            s.iter().map(|r| r[5]).collect(),
+        ),
+    ];
+    let (mut lo, mut hi) = (0.0f64, 0.0f64);
+    for (_, _, v) in &curves {
+        for &x in v {
+            if x.is_finite() {
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
+        }
+    }
+    if hi - lo <= 0.0 {
+        hi = lo + 1e-12;
+    }
+    let pad = 0.05 * (hi - lo);
+    let (ta, tb) = (
+        t[0],
+        if t[t.len() - 1] > t[0] {
+            t[t.len() - 1]
+        } else {
+            t[0] + 1e-9
+        },
+    );
+
+    let root = BitMapBackend::new(path, (1000, 650)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let root = root
+        .titled(&format!("{title}: energy"), ("sans-serif", 26))
+        .map_err(err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .margin(20)
+        .x_label_area_size(55)
+        .y_label_area_size(95)
+        .build_cartesian_2d(ta..tb, (lo - pad)..(hi + pad))
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc("energy [J]")
+        .y_label_formatter(&|v| {
+            if *v == 0.0 {
+                "0".into()
+            } else {
+                format!("{v:.2e}")
+            }
+        })
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 20))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(err)?;
+    for (name, colour, v) in curves {
+        let style = colour.stroke_width(2);
+        chart
+            .draw_series(LineSeries::new(t.iter().copied().zip(v), style))
+            .map_err(err)?
+            .label(name)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(3))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .label_font(("sans-serif", 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn viridis_ends() {
+        assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
+        assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
+        assert_eq!(viridis(2.0), viridis(1.0));
+    }
+}
