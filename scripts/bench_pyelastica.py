@@ -1,7 +1,7 @@
 """Time PyElastica on the paper's arm, the same case as octoarm's criterion bench (README "Speed").
 
 Run through scripts/bench_pyelastica.sh, which makes a throw-away venv with PyElastica; not part
-of CI. Prints one line `pyelastica_us_per_step <value>` (median over repeats) plus details.
+of CI. For each element count prints `pyelastica_us_per_step <N> <value>` (median over repeats).
 
 The arm, as in `StraightRod::paper_arm()` and crates/physics/benches/step.rs:
   * N = 100 elements (or --elements), L = 0.2 m along +x, normal (d1) +y, clamped base;
@@ -66,32 +66,34 @@ def build(n_elements: int, dt: float):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--elements", type=int, default=100)
+    parser.add_argument("--elements", type=int, nargs="+", default=[100])
     parser.add_argument("--steps", type=int, default=20000, help="timed steps per repeat")
     parser.add_argument("--warmup", type=int, default=2000)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
 
     dt = 1.0e-5
-    sim, rod = build(args.elements, dt)
-    stepper = ea.PositionVerlet()
-    t = np.float64(0.0)
-    for _ in range(args.warmup):
-        t = stepper.step(sim, t, dt)
-    per_step = []
-    for _ in range(args.repeats):
-        start = time.perf_counter()
-        for _ in range(args.steps):
+    version = importlib.metadata.version("pyelastica")
+    for n in args.elements:
+        sim, rod = build(n, dt)
+        stepper = ea.PositionVerlet()
+        t = np.float64(0.0)
+        for _ in range(args.warmup):
             t = stepper.step(sim, t, dt)
-        per_step.append((time.perf_counter() - start) * 1e6 / args.steps)
-    if not np.all(np.isfinite(rod.position_collection)):
-        raise SystemExit("PyElastica run became non-finite")
-    tip = rod.position_collection[:, -1]
-    print(f"pyelastica {importlib.metadata.version('pyelastica')} N={args.elements} "
-          f"steps={args.steps}x{args.repeats} t={float(t):.4f} s tip=({tip[0]:.5f}, {tip[1]:.5f}) m")
-    print("repeats [us/step]:", " ".join(f"{v:.2f}" for v in per_step))
-    print(f"pyelastica_us_per_step {statistics.median(per_step):.3f}")
-
+        per_step = []
+        for _ in range(args.repeats):
+            start = time.perf_counter()
+            for _ in range(args.steps):
+                t = stepper.step(sim, t, dt)
+            per_step.append((time.perf_counter() - start) * 1e6 / args.steps)
+        if not np.all(np.isfinite(rod.position_collection)):
+            raise SystemExit(f"PyElastica run with N={n} became non-finite")
+        tip = rod.position_collection[:, -1]
+        print(
+            f"# pyelastica {version} N={n} steps={args.steps}x{args.repeats} t={float(t):.4f} s "
+            f"tip=({tip[0]:.5f}, {tip[1]:.5f}) m, repeats [us/step]: " + " ".join(f"{v:.2f}" for v in per_step)
+        )
+        print(f"pyelastica_us_per_step {n} {statistics.median(per_step):.3f}", flush=True)
 
 if __name__ == "__main__":
     main()

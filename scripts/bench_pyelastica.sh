@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Speed comparison with PyElastica, measured in one sitting (README "Speed"). Not part of CI.
 #
-#   scripts/bench_pyelastica.sh            # N = 100
-#   N=200 scripts/bench_pyelastica.sh      # another element count (25, 50, 100, 200 or 400)
+#   scripts/bench_pyelastica.sh                       # N = 100
+#   N="25 50 100 200 400" scripts/bench_pyelastica.sh  # the README table (counts of the bench)
 #
 # 1. Makes a throw-away venv under /tmp and installs PyElastica from PyPI (PYELASTICA_VERSION,
 #    default 1.0.0, the version current when this was written). Set PYELASTICA_VENV to reuse a venv.
@@ -28,21 +28,24 @@ fi
 "$venv/bin/pip" install --quiet --disable-pip-version-check "pyelastica==$version"
 
 echo "== PyElastica $version, N = $n"
-py_out=$("$venv/bin/python" "$root/scripts/bench_pyelastica.py" --elements "$n")
+py_out=$("$venv/bin/python" "$root/scripts/bench_pyelastica.py" --elements $n)
 echo "$py_out"
-py_us=$(echo "$py_out" | awk '/^pyelastica_us_per_step/ {print $2}')
 
 echo "== octoarm (criterion), N = $n"
 cd "$root"
-cargo bench -p octoarm-physics --bench step -- "paper_arm/$n\$" 2>&1 | grep -E 'paper_arm|time:' || true
-estimates="${CARGO_TARGET_DIR:-$root/target}/criterion/step/paper_arm/$n/new/estimates.json"
-rs_us=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["median"]["point_estimate"] / 1e3)' "$estimates")
+filter=$(echo "$n" | sed 's/ \+/|/g')
+cargo bench -p octoarm-physics --bench step -- "paper_arm/($filter)\$" 2>&1 | grep -E 'paper_arm|time:' || true
+criterion_dir="${CARGO_TARGET_DIR:-$root/target}/criterion/step/paper_arm"
 
 echo
 echo "machine: $(lscpu | sed -n 's/^Model name: *//p'), one core; $(date -u +%Y-%m-%dT%H:%MZ)"
-python3 - "$n" "$py_us" "$rs_us" "$version" <<'PY'
-import sys
-n, py, rs, version = int(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
-print(f"{'N':>5} {'octoarm [us/step]':>18} {'PyElastica ' + version + ' [us/step]':>28} {'ratio':>7}")
-print(f"{n:>5} {rs:>18.2f} {py:>28.2f} {py / rs:>6.1f}x")
+python3 - "$criterion_dir" "$version" "$py_out" <<'PY'
+import json, sys
+criterion_dir, version, py_out = sys.argv[1], sys.argv[2], sys.argv[3]
+py = {int(w[1]): float(w[2]) for w in (l.split() for l in py_out.splitlines()) if w and w[0] == "pyelastica_us_per_step"}
+print(f"{'N':>5} {'octoarm [us/step]':>18} {'ns/element':>11} {'PyElastica ' + version + ' [us/step]':>28} {'ratio':>7}")
+for n, p in sorted(py.items()):
+    with open(f"{criterion_dir}/{n}/new/estimates.json") as f:
+        rs = json.load(f)["median"]["point_estimate"] / 1e3
+    print(f"{n:>5} {rs:>18.2f} {rs * 1e3 / n:>11.1f} {p:>28.2f} {p / rs:>6.1f}x")
 PY

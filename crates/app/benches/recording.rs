@@ -1,1 +1,91 @@
-fn main() {}
+//! Criterion benchmark: the cost of recording and writing on top of stepping, at the default
+//! save_interval = 1e-3 s (every 100 steps at dt = 1e-5 s). For the paper's arm with its tip
+//! force and N = 50, 100, 200 elements, 0.2 s of simulated time (20 000 steps, 201 frames):
+//! - `step_only`: the stepper loop alone;
+//! - `record_npz`: the same loop with the recorder (guard check, energies, frame copy, strains and
+//!   compression on the writer thread) and `trajectory.npz` written at the end;
+//! - `whole_run/100`: `runner::run` with everything (npz, summary.json, scenario.toml, figures).
+//!
+//! Setup (scenario parsing, model building) is outside the timed closures except in `whole_run`.
+#![allow(missing_docs)] // criterion's macros generate undocumented items
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use octoarm::output::OutputDir;
+use octoarm::recorder::Recorder;
+use octoarm::runner::{self, build_simulation, step_loop, RunOptions};
+use octoarm::scenario::Scenario;
+use std::path::Path;
+use std::time::Duration;
+
+fn scenario(n: usize) -> Scenario {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/arm_tip_force.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("n_elements = 100", &format!("n_elements = {n}"))
+        .replace("duration = 2.0", "duration = 0.2")
+        .replace("value = [0.0, 2.0e-5, 0.0]", "value = [0.0, 1.0e-5, 0.0]");
+    Scenario::from_str(&path, &text).unwrap()
+}
+
+fn bench_recording(c: &mut Criterion) {
+    let mut group = c.benchmark_group("arm_0.2s");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(8))
+        .warm_up_time(Duration::from_secs(1));
+    let tmp = tempfile::tempdir().unwrap();
+    for n in [50usize, 100, 200] {
+        let scn = scenario(n);
+        let cfg = &scn.config;
+        let steps = cfg.n_steps();
+        group.bench_with_input(BenchmarkId::new("step_only", n), &n, |b, _| {
+            b.iter_batched(
+                || build_simulation(&scn).unwrap(),
+                |mut sim| {
+                    for _ in 0..steps {
+                        sim.step().unwrap();
+                    }
+                    sim
+                },
+                criterion::BatchSize::LargeInput,
+            );
+        });
+        let dir = tmp.path().join(format!("rec{n}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        group.bench_with_input(BenchmarkId::new("record_npz", n), &n, |b, _| {
+            b.iter_batched(
+                || {
+                    let sim = build_simulation(&scn).unwrap();
+                    let rec = Recorder::new(&sim.model, cfg.n_frames() as usize, &dir).unwrap();
+                    (sim, rec)
+                },
+                |(mut sim, mut rec)| {
+                    sim.check().unwrap();
+                    rec.record(&sim).unwrap();
+                    let failure =
+                        step_loop(&mut sim, steps, cfg.save_every(), &mut rec, |_, _| {}).unwrap();
+                    assert!(failure.is_none());
+                    rec.finish(&dir.join("trajectory.npz")).unwrap();
+                    sim
+                },
+                criterion::BatchSize::LargeInput,
+            );
+        });
+    }
+    let scn = scenario(100);
+    let out = tmp.path().join("whole");
+    group.bench_function(BenchmarkId::new("whole_run", 100), |b| {
+        b.iter(|| {
+            runner::run(
+                &scn,
+                OutputDir::prepare(&out).unwrap(),
+                RunOptions::default(),
+            )
+            .unwrap()
+        });
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_recording);
+criterion_main!(benches);

@@ -46,6 +46,19 @@ pub fn viridis(u: f64) -> RGBColor {
 
 const AXIS: [&str; 3] = ["x", "y", "z"];
 
+/// A tick label with three decimals and no "-0.000".
+fn tick(v: f64) -> String {
+    let s = format!("{v:.3}");
+    if s.trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        s.trim_start_matches('-').to_string()
+    } else {
+        s
+    }
+}
+
 /// Centrelines of the recorded frames (up to ~40, evenly spread in time, the last always
 /// included), projected on the two lab axes with the largest extent, equal scales, colour by
 /// time with a colour bar; the tip path as a thin grey line; obstacles as outlines.
@@ -129,8 +142,8 @@ pub fn shapes_png(
         .configure_mesh()
         .x_desc(format!("{} [m]", AXIS[ax]))
         .y_desc(format!("{} [m]", AXIS[ay]))
-        .x_label_formatter(&|v| format!("{v:.3}"))
-        .y_label_formatter(&|v| format!("{v:.3}"))
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
         .label_style(("sans-serif", 16))
         .axis_desc_style(("sans-serif", 20))
         .light_line_style(WHITE.mix(0.0))
@@ -203,7 +216,7 @@ pub fn shapes_png(
         .disable_y_mesh()
         .disable_x_axis()
         .y_desc("t [s]")
-        .y_label_formatter(&|v| format!("{v:.3}"))
+        .y_label_formatter(&|v| tick(*v))
         .label_style(("sans-serif", 16))
         .axis_desc_style(("sans-serif", 20))
         .draw()

@@ -105,7 +105,7 @@ fn init_logging(cli: &Cli) {
         .init();
 }
 
-fn load(path: &PathBuf, duration: Option<f64>) -> Result<Scenario> {
+fn load(path: &std::path::Path, duration: Option<f64>) -> Result<Scenario> {
     let mut scn = Scenario::load(path)?;
     if let Some(d) = duration {
         octoarm::override_duration(&mut scn, d)?;

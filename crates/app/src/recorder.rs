@@ -195,10 +195,7 @@ impl Recorder {
             column.extend(self.series.iter().map(|row| row[c]));
             write_member(&mut npz, name, &[t], &column)?;
         }
-        npz.finish()?
-            .into_inner()
-            .map_err(|e| e.into_error())?
-            .sync_all()?;
+        npz.finish()?.into_inner().map_err(|e| e.into_error())?;
         Ok(())
     }
 

@@ -73,14 +73,7 @@ struct Trajectory {
 fn read_trajectory(dir: &Path) -> Trajectory {
     let mut npz = NpzReader::new(File::open(dir.join("trajectory.npz")).unwrap()).unwrap();
     let names = npz.names().unwrap();
-    for required in [
-        "time",
-        "position",
-        "velocity",
-        "director",
-        "sigma",
-        "kappa",
-    ] {
+    for required in ["time", "position", "velocity", "director", "sigma", "kappa"] {
         assert!(
             names.iter().any(|n| n == required),
             "{required} missing from {names:?}"

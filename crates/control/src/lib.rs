@@ -22,6 +22,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod error;
+pub mod experiments;
 pub mod shaping;
 pub mod solver;
 pub mod statics;
@@ -29,6 +30,11 @@ pub mod strains;
 pub mod task;
 
 pub use error::{ShapingError, SolveError, StaticsError, TaskError};
+pub use experiments::{
+    run_experiment, ExperimentError, ExperimentOutcome, ExperimentSink, ExperimentSpec, Frame,
+    FrameCollector, GraspSpec, NoFrames, Sample, SegmentSummary, SolverMode, SphereSpec, Summary,
+    TargetPhase,
+};
 pub use shaping::{EnergyShapingController, LawEvaluation, ShapingConfig};
 pub use solver::{
     OfflineSolver, OnlineConfig, OnlineReport, OnlineSolver, Outcome, Solution, SolveReport,

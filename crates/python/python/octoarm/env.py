@@ -1,0 +1,143 @@
+"""Gymnasium environments of the planar octopus arm reaching a target.
+
+``ArmReachEnv`` (id ``octoarm/ArmReach-v0``): one planar arm (the paper's geometry, 20 elements
+by default), clamped at the origin along +x, bending in the x-y plane.
+
+* **Action** (``n_segments`` = 4 floats in [-1, 1]): rest-curvature commands. The arm is split
+  into ``n_segments`` equal segments; segment s gets the in-plane rest curvature
+  ``a_s * max_curvature`` (20 1/m by default), like a muscle that shortens one side of the arm.
+  An action holds for one **control period of 10 ms** (200 steps of dt = 50 us): one environment
+  step = 10 ms of simulated time.
+* **Observation** (float32): node x, y [m] (n + 1 pairs), node vx, vy [m/s] (n + 1 pairs), the
+  target x, y [m], and the last (clipped) action.
+* **Reward**: ``-|tip - target| [m] - effort_weight * mean(a**2)`` (effort_weight = 0.01).
+* **Episode**: 200 steps (2 s), truncated by Gymnasium's TimeLimit; never terminated.
+  Targets are drawn from the seeded ``np_random`` at radius 0.08-0.18 m, angle +-60 deg.
+
+``ArmReachVectorEnv``: ``num_envs`` arms stepped in parallel by Rust threads (rayon,
+``num_threads``; default all cores), with Gymnasium's next-step autoreset. The physics of
+every arm is sequential and independent, so results do not depend on the thread count.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from ._octoarm import ArmBatch
+
+EPISODE_STEPS = 200
+
+
+def _sample_targets(rng: np.random.Generator, k: int) -> np.ndarray:
+    radius = rng.uniform(0.08, 0.18, size=k)
+    angle = rng.uniform(-np.pi / 3, np.pi / 3, size=k)
+    return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+
+
+def _spaces(batch: ArmBatch) -> tuple[spaces.Box, spaces.Box]:
+    obs = spaces.Box(-np.inf, np.inf, shape=(batch.obs_dim,), dtype=np.float32)
+    act = spaces.Box(-1.0, 1.0, shape=(batch.action_dim,), dtype=np.float32)
+    return obs, act
+
+
+class ArmReachEnv(gym.Env):
+    """One planar arm reaching a target; see the module docstring for spaces and reward.
+
+    Keyword arguments are those of :class:`octoarm.ArmBatch` (``n_elements``, ``n_segments``,
+    ``max_curvature``, ``control_period``, ``dt``, ``damping_rate``, ``effort_weight``).
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode = {render_mode!r} is not supported; use None")
+        self._batch = ArmBatch(n_envs=1, num_threads=1, **config)
+        self.observation_space, self.action_space = _spaces(self._batch)
+        self.control_period = self._batch.control_period
+        self.target = np.zeros(2)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        if options and "target" in options:
+            self.target = np.asarray(options["target"], dtype=np.float64).reshape(2)
+        else:
+            self.target = _sample_targets(self.np_random, 1)[0]
+        obs = self._batch.reset(self.target.reshape(1, 2))
+        return obs[0], {}
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64).reshape(1, -1)
+        obs, reward, distance = self._batch.step(a)
+        return obs[0], float(reward[0]), False, False, {"tip_distance": float(distance[0])}
+
+    def simulation(self):
+        """A copy of the arm as an :class:`octoarm.Simulation`."""
+        return self._batch.simulation(0)
+
+
+class ArmReachVectorEnv(VectorEnv):
+    """``num_envs`` arms stepped in parallel in Rust; next-step autoreset (Gymnasium >= 1.0)."""
+
+    metadata = {"render_modes": [], "autoreset_mode": "NextStep"}
+
+    def __init__(
+        self,
+        num_envs: int = 8,
+        num_threads: int | None = None,
+        max_episode_steps: int = EPISODE_STEPS,
+        render_mode: str | None = None,
+        **config: Any,
+    ) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode = {render_mode!r} is not supported; use None")
+        if max_episode_steps < 1:
+            raise ValueError(
+                f"max_episode_steps = {max_episode_steps} is outside the allowed range [1, inf)"
+            )
+        try:  # Gymnasium >= 1.1 names the mode with an enum
+            from gymnasium.vector import AutoresetMode
+
+            self.metadata = {**self.metadata, "autoreset_mode": AutoresetMode.NEXT_STEP}
+        except ImportError:  # pragma: no cover
+            pass
+        self._batch = ArmBatch(n_envs=num_envs, num_threads=num_threads, **config)
+        self.num_envs = num_envs
+        self.max_episode_steps = max_episode_steps
+        self.single_observation_space, self.single_action_space = _spaces(self._batch)
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self.control_period = self._batch.control_period
+        self.targets = np.zeros((num_envs, 2))
+        self._elapsed = np.zeros(num_envs, dtype=np.int64)
+        self._autoreset = np.zeros(num_envs, dtype=bool)
+        self._np_random = None
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.targets = _sample_targets(self.np_random, self.num_envs)
+        self._elapsed[:] = 0
+        self._autoreset[:] = False
+        return self._batch.reset(self.targets), {}
+
+    def step(self, actions):
+        a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
+        obs, reward, distance = self._batch.step(a)
+        self._elapsed += 1
+        done = self._autoreset
+        if done.any():
+            idx = np.flatnonzero(done)
+            self.targets[idx] = _sample_targets(self.np_random, idx.size)
+            obs = self._batch.reset(self.targets[idx], [int(i) for i in idx])
+            reward[idx] = 0.0
+            self._elapsed[idx] = 0
+        truncated = self._elapsed >= self.max_episode_steps
+        terminated = np.zeros(self.num_envs, dtype=bool)
+        self._autoreset = truncated.copy()
+        return obs, reward, terminated, truncated, {"tip_distance": distance}

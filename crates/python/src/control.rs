@@ -1,0 +1,233 @@
+//! The controller from Python: the offline strain-space solver (statics for a reach task with
+//! optional obstacles, or a tip force), its design (target strains and shape), and the
+//! energy-shaping loop that drives a `Simulation` to that design.
+
+use crate::arrays::{mat3s, vec3s};
+use crate::rod::Simulation;
+use crate::step_error;
+use numpy::{PyArray2, PyArray3};
+use octoarm_control as ctl;
+use octoarm_control::{ShapingConfig, SolverConfig, StrainField, StrainSpace, Task};
+use octoarm_physics::Vec3;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+fn solve_error(e: ctl::SolveError) -> PyErr {
+    match e {
+        ctl::SolveError::Diverged { .. } => PyRuntimeError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+fn shaping_error(e: ctl::ShapingError) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+/// A designed strain field w̄ = (ν̄, κ̄), its shape and the solver's report.
+#[pyclass(module = "octoarm", frozen)]
+pub struct Design {
+    strains: StrainField,
+    position: Vec<Vec3>,
+    director: Vec<octoarm_physics::Mat3>,
+    /// "converged" or "not converged".
+    #[pyo3(get)]
+    outcome: String,
+    /// Iterations of the update rule.
+    #[pyo3(get)]
+    iterations: usize,
+    /// Forward–backward sweeps.
+    #[pyo3(get)]
+    sweeps: usize,
+    /// Total cost J [J].
+    #[pyo3(get)]
+    cost: f64,
+    /// Distance of the designed tip to the target [m] (0 without a target).
+    #[pyo3(get)]
+    tip_error: f64,
+    /// Strain residual at the end.
+    #[pyo3(get)]
+    residual: f64,
+    /// Warnings, in words.
+    #[pyo3(get)]
+    warnings: Vec<String>,
+}
+
+#[pymethods]
+impl Design {
+    /// Full strains ν̄ = σ̄ + e3 per element, (n, 3), material frame.
+    #[getter]
+    fn nu<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let v: Vec<Vec3> = (0..self.strains.n_elements())
+            .map(|j| self.strains.nu(j))
+            .collect();
+        vec3s(py, &v)
+    }
+
+    /// Curvatures κ̄ [1/m] per interior point, (n − 1, 3), material frame.
+    #[getter]
+    fn kappa<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let v: Vec<Vec3> = (0..self.strains.n_elements() - 1)
+            .map(|k| self.strains.kappa(k))
+            .collect();
+        vec3s(py, &v)
+    }
+
+    /// Rest shear/stretch strains σ̄ = ν̄ − e3, (n, 3), ready for `Simulation.set_rest_strains`.
+    #[getter]
+    fn sigma<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        vec3s(py, &self.strains.to_rest_strains().0)
+    }
+
+    /// Designed centreline [m], (n + 1, 3), lab frame.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        vec3s(py, &self.position)
+    }
+
+    /// Designed directors, (n, 3, 3), rows d1, d2, d3.
+    #[getter]
+    fn directors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+        mat3s(py, &self.director)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Design(outcome={:?}, sweeps={}, tip_error={:e} m)",
+            self.outcome, self.sweeps, self.tip_error
+        )
+    }
+}
+
+/// The offline strain-space solver (forward–backward sweep, L-BFGS by default) for the arm of a
+/// `Simulation` (its model and clamped base). `space` is "planar" (default) or "full".
+#[pyclass(module = "octoarm")]
+pub struct OfflineSolver {
+    inner: ctl::OfflineSolver,
+}
+
+#[pymethods]
+impl OfflineSolver {
+    #[new]
+    #[pyo3(signature = (sim, space = "planar", floor_diameter = 4.0e-3, max_sweeps = 20_000))]
+    fn new(
+        sim: &Simulation,
+        space: &str,
+        floor_diameter: f64,
+        max_sweeps: usize,
+    ) -> PyResult<Self> {
+        let space = match space {
+            "planar" => StrainSpace::Planar,
+            "full" => StrainSpace::Full,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "space = {other:?} is not allowed; use \"planar\" or \"full\""
+                )))
+            }
+        };
+        let config = SolverConfig {
+            space,
+            floor_diameter,
+            max_sweeps,
+            ..SolverConfig::default()
+        };
+        let inner = ctl::OfflineSolver::new(&sim.inner.model, &sim.inner.state, config)
+            .map_err(solve_error)?;
+        Ok(Self { inner })
+    }
+
+    /// Solve the statics of a task (GIL released): reach `target` [m] with tip spring `mu_tip`
+    /// [N/m] (paper 1e3), or hold a tip `force` [N]; `obstacles` is a list of
+    /// (center [m], diameter [m], xi [N/m²]) spheres to avoid. Returns a `Design`.
+    #[pyo3(signature = (target = None, mu_tip = 1.0e3, force = None, obstacles = Vec::new()))]
+    fn solve(
+        &mut self,
+        py: Python<'_>,
+        target: Option<Vec3>,
+        mu_tip: f64,
+        force: Option<Vec3>,
+        obstacles: Vec<(Vec3, f64, f64)>,
+    ) -> PyResult<Design> {
+        let mut task = match (target, force) {
+            (Some(t), None) => Task::reach(t, mu_tip),
+            (None, Some(f)) => Task::tip_force(f),
+            _ => {
+                return Err(PyValueError::new_err(
+                    "give exactly one of target (tip target [m]) or force (tip force [N])",
+                ))
+            }
+        };
+        for (center, diameter, xi) in obstacles {
+            task = task.with_obstacle(center, diameter, xi);
+        }
+        let solver = &mut self.inner;
+        let solution = py
+            .detach(|| solver.solve(&task, None))
+            .map_err(solve_error)?;
+        let shape = self.inner.statics_mut().state_of(&solution.strains);
+        let r = &solution.report;
+        Ok(Design {
+            position: shape.position,
+            director: shape.director,
+            outcome: match r.outcome {
+                ctl::Outcome::Converged => "converged".into(),
+                ctl::Outcome::NotConverged => "not converged".into(),
+            },
+            iterations: r.iterations,
+            sweeps: r.sweeps,
+            cost: r.cost.total,
+            tip_error: r.tip_error,
+            residual: r.residual,
+            warnings: r.warnings.iter().map(|w| format!("{w:?}")).collect(),
+            strains: solution.strains,
+        })
+    }
+}
+
+/// The energy-shaping law: makes a design the arm's shaped rest strains and adds the control
+/// to every step of a `Simulation`; its damping rate ν_d [1/s] (default 10) is set on the
+/// simulation's mass-proportional damping when the controller is created.
+#[pyclass(module = "octoarm")]
+pub struct EnergyShapingController {
+    inner: ctl::EnergyShapingController,
+}
+
+#[pymethods]
+impl EnergyShapingController {
+    #[new]
+    #[pyo3(signature = (sim, damping_rate = 10.0))]
+    fn new(mut sim: PyRefMut<'_, Simulation>, damping_rate: f64) -> PyResult<Self> {
+        let config = ShapingConfig {
+            damping_rate,
+            ..ShapingConfig::default()
+        };
+        let mut inner =
+            ctl::EnergyShapingController::new(&sim.inner.model, config).map_err(shaping_error)?;
+        inner.attach(&mut sim.inner).map_err(shaping_error)?;
+        Ok(Self { inner })
+    }
+
+    /// Put `design` in force (refuses degenerate designs with `ValueError`).
+    fn set_design(&mut self, sim: &Simulation, design: &Design) -> PyResult<()> {
+        self.inner
+            .set_design(&sim.inner.model, &design.strains)
+            .map_err(shaping_error)
+    }
+
+    /// Advance `sim` by `n` steps under the law (GIL released), then run the stability guard.
+    #[pyo3(signature = (sim, n = 1))]
+    fn step(&mut self, py: Python<'_>, mut sim: PyRefMut<'_, Simulation>, n: u64) -> PyResult<()> {
+        let ctrl = &mut self.inner;
+        let s = &mut sim.inner;
+        py.detach(|| {
+            ctrl.run(s, n)?;
+            s.check()
+        })
+        .map_err(|e| step_error(py, e))
+    }
+
+    /// Shaped Hamiltonian [J]: kinetic energy + strain energy measured from the design.
+    fn shaped_hamiltonian(&self, sim: &Simulation) -> f64 {
+        self.inner
+            .shaped_hamiltonian(&sim.inner.model, &sim.inner.state)
+    }
+}

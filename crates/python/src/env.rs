@@ -1,0 +1,347 @@
+//! `ArmBatch`: the physics of the `octoarm/ArmReach-v0` environments, for many arms at once.
+//! Each arm is a planar arm (paper geometry, fewer elements) commanded by rest curvatures on a
+//! few segments; one action holds for one control period. Arms are stepped in parallel on a
+//! private rayon pool; each arm's arithmetic is sequential and independent of the others, so
+//! results are bit-identical whatever the thread count. Randomness (targets) lives in Python.
+
+use crate::arrays::shape_str;
+use crate::{model_error, rod::Simulation as PySimulation, step_error};
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
+use octoarm_physics::{Damping, Settings, Simulation, StepError, StraightRod};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use rayon::prelude::*;
+
+/// One arm of the batch: the simulation, its initial copy, target and last action.
+#[derive(Clone)]
+struct Arm {
+    sim: Simulation,
+    initial: Simulation,
+    target: [f64; 2],
+    action: Vec<f64>,
+}
+
+/// Configuration shared by all arms of a batch (validated in `ArmBatch::new`).
+#[derive(Clone, Copy)]
+struct Config {
+    n_segments: usize,
+    max_curvature: f64,
+    steps_per_action: u64,
+    effort_weight: f64,
+    activation_time: f64,
+}
+
+impl Arm {
+    /// Drive the in-plane rest curvature κ°₂ of every interior point of segment s towards
+    /// a_s · max_curvature (a clipped to [−1, 1]) while simulating one control period.
+    fn advance(&mut self, cfg: &Config, action: &[f64]) -> Result<(), StepError> {
+        for (dst, &a) in self.action.iter_mut().zip(action) {
+            *dst = if a.is_nan() { 0.0 } else { a.clamp(-1.0, 1.0) };
+        }
+        let n_interior = self.sim.model.rest_kappa.len();
+        // Muscle-like activation: the rest curvature follows the command with a first-order lag
+        // of time constant `activation_time`, updated every time step (a step change of rest
+        // curvature would shock the thin arm into the non-variational zig-zag mode).
+        let alpha = if cfg.activation_time > 0.0 {
+            1.0 - (-self.sim.settings.dt / cfg.activation_time).exp()
+        } else {
+            1.0
+        };
+        for _ in 0..cfg.steps_per_action {
+            for (k, kappa) in self.sim.model.rest_kappa.iter_mut().enumerate() {
+                let seg = k * cfg.n_segments / n_interior;
+                let goal = self.action[seg] * cfg.max_curvature;
+                kappa[1] += alpha * (goal - kappa[1]);
+            }
+            self.sim.step()?;
+        }
+        self.sim.check()
+    }
+
+    fn tip_distance(&self) -> f64 {
+        let tip = self.sim.state.tip();
+        ((tip[0] - self.target[0]).powi(2) + (tip[1] - self.target[1]).powi(2)).sqrt()
+    }
+
+    /// Reward: −(tip distance [m]) − effort_weight · mean(a²).
+    fn reward(&self, cfg: &Config) -> f64 {
+        let effort = self.action.iter().map(|a| a * a).sum::<f64>() / cfg.n_segments as f64;
+        -self.tip_distance() - cfg.effort_weight * effort
+    }
+
+    /// Observation: node x, y [m]; node vx, vy [m/s]; target x, y [m]; last action.
+    fn observe(&self, out: &mut [f32]) {
+        let s = &self.sim.state;
+        let mut o = 0;
+        for p in &s.position {
+            out[o] = p[0] as f32;
+            out[o + 1] = p[1] as f32;
+            o += 2;
+        }
+        for v in &s.velocity {
+            out[o] = v[0] as f32;
+            out[o + 1] = v[1] as f32;
+            o += 2;
+        }
+        out[o] = self.target[0] as f32;
+        out[o + 1] = self.target[1] as f32;
+        o += 2;
+        for (dst, a) in out[o..].iter_mut().zip(&self.action) {
+            *dst = *a as f32;
+        }
+    }
+}
+
+/// Many planar arms stepped in parallel (rayon, `num_threads` workers; default all cores).
+/// Arguments: `n_envs` ≥ 1; `n_elements` ≥ 4 (default 20); `n_segments` in [1, n_elements − 1]
+/// (default 4); `max_curvature` [1/m] > 0 (default 20); `control_period` [s] (default 0.01) a
+/// whole multiple of `dt` [s] (default 5e-5); `damping_rate` [1/s] ≥ 0 (default 10);
+/// `effort_weight` ≥ 0 (default 0.01); `activation_time` [s] ≥ 0, the lag of the rest
+/// curvature behind the command (default 0.05); `tip_diameter` [m] > 0 (default 4 mm: the paper's
+/// 0.4 mm tip shears past the stability guard under bang-bang commands at this resolution).
+#[pyclass(module = "octoarm")]
+pub struct ArmBatch {
+    arms: Vec<Arm>,
+    cfg: Config,
+    pool: Option<rayon::ThreadPool>,
+    obs_dim: usize,
+    control_period: f64,
+}
+
+impl ArmBatch {
+    fn obs(&self) -> Array2<f32> {
+        let mut out = Array2::<f32>::zeros((self.arms.len(), self.obs_dim));
+        for (arm, mut row) in self.arms.iter().zip(out.rows_mut()) {
+            arm.observe(
+                row.as_slice_mut()
+                    .expect("rows of a standard array are contiguous"),
+            );
+        }
+        out
+    }
+}
+
+fn bad(field: &str, value: impl std::fmt::Display, range: &str) -> PyErr {
+    PyValueError::new_err(format!(
+        "{field} = {value} is outside the allowed range {range}"
+    ))
+}
+
+#[pymethods]
+impl ArmBatch {
+    #[new]
+    #[pyo3(signature = (n_envs = 1, n_elements = 20, n_segments = 4, max_curvature = 20.0,
+        control_period = 0.01, dt = 5.0e-5, damping_rate = 10.0, effort_weight = 0.01,
+        tip_diameter = 0.004, activation_time = 0.05, num_threads = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        n_envs: i64,
+        n_elements: i64,
+        n_segments: i64,
+        max_curvature: f64,
+        control_period: f64,
+        dt: f64,
+        damping_rate: f64,
+        effort_weight: f64,
+        tip_diameter: f64,
+        activation_time: f64,
+        num_threads: Option<i64>,
+    ) -> PyResult<Self> {
+        if n_envs < 1 {
+            return Err(bad("n_envs", n_envs, "[1, inf)"));
+        }
+        if n_elements < 4 {
+            return Err(bad("n_elements", n_elements, "[4, inf)"));
+        }
+        if n_segments < 1 || n_segments >= n_elements {
+            return Err(bad("n_segments", n_segments, "[1, n_elements - 1]"));
+        }
+        if !(max_curvature.is_finite() && max_curvature > 0.0) {
+            return Err(bad("max_curvature", max_curvature, "(0, inf)"));
+        }
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(bad("dt", dt, "(0, inf)"));
+        }
+        if !(control_period.is_finite() && control_period >= dt) {
+            return Err(bad("control_period", control_period, "[dt, inf)"));
+        }
+        let steps = (control_period / dt).round();
+        if ((steps * dt - control_period) / control_period).abs() > 1e-9 {
+            return Err(PyValueError::new_err(format!(
+                "control_period = {control_period} must be a whole multiple of dt = {dt}"
+            )));
+        }
+        if !(activation_time.is_finite() && activation_time >= 0.0) {
+            return Err(bad("activation_time", activation_time, "[0, inf)"));
+        }
+        if !(effort_weight.is_finite() && effort_weight >= 0.0) {
+            return Err(bad("effort_weight", effort_weight, "[0, inf)"));
+        }
+        let pool = match num_threads {
+            Some(t) if t < 1 => return Err(bad("num_threads", t, "[1, inf)")),
+            Some(1) => None,
+            Some(t) => Some(t as usize),
+            None if n_envs == 1 => None,
+            None => Some(0), // rayon: one worker per core
+        };
+        let pool = pool
+            .map(|t| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(t)
+                    .build()
+                    .map_err(|e| PyValueError::new_err(e.to_string()))
+            })
+            .transpose()?;
+        let rod = StraightRod {
+            tip_diameter,
+            ..StraightRod::paper_arm().with_elements(n_elements as usize)
+        };
+        let (model, state) = rod.build().map_err(model_error)?;
+        let mut sim = Simulation::new(model, state, Settings::with_dt(dt)).map_err(model_error)?;
+        sim.set_damping(Damping::mass_proportional(damping_rate))
+            .map_err(model_error)?;
+        let n_segments = n_segments as usize;
+        let arm = Arm {
+            initial: sim.clone(),
+            sim,
+            target: [0.1, 0.1],
+            action: vec![0.0; n_segments],
+        };
+        let n_nodes = n_elements as usize + 1;
+        Ok(Self {
+            arms: vec![arm; n_envs as usize],
+            cfg: Config {
+                n_segments,
+                max_curvature,
+                steps_per_action: steps as u64,
+                effort_weight,
+                activation_time,
+            },
+            pool,
+            obs_dim: 4 * n_nodes + 2 + n_segments,
+            control_period,
+        })
+    }
+
+    /// Number of arms.
+    #[getter]
+    fn n_envs(&self) -> usize {
+        self.arms.len()
+    }
+
+    /// Length of one observation.
+    #[getter]
+    fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+
+    /// Length of one action (= n_segments).
+    #[getter]
+    fn action_dim(&self) -> usize {
+        self.cfg.n_segments
+    }
+
+    /// Simulated seconds per environment step.
+    #[getter]
+    fn control_period(&self) -> f64 {
+        self.control_period
+    }
+
+    /// Time steps per environment step.
+    #[getter]
+    fn steps_per_action(&self) -> u64 {
+        self.cfg.steps_per_action
+    }
+
+    /// Reset the arms `indices` (default: all) to rest with the given targets (k, 2) [m];
+    /// returns the observations of all arms, (n_envs, obs_dim) float32.
+    #[pyo3(signature = (targets, indices = None))]
+    fn reset<'py>(
+        &mut self,
+        py: Python<'py>,
+        targets: PyReadonlyArray2<'_, f64>,
+        indices: Option<Vec<usize>>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let indices = indices.unwrap_or_else(|| (0..self.arms.len()).collect());
+        if targets.shape() != [indices.len(), 2] {
+            return Err(PyValueError::new_err(format!(
+                "targets has shape {}, expected ({}, 2)",
+                shape_str(targets.shape()),
+                indices.len()
+            )));
+        }
+        let t = targets.as_array();
+        for (row, &i) in indices.iter().enumerate() {
+            if i >= self.arms.len() {
+                return Err(bad("index", i, "[0, n_envs - 1]"));
+            }
+            let target = [t[[row, 0]], t[[row, 1]]];
+            if !target.iter().all(|v| v.is_finite()) {
+                return Err(PyValueError::new_err("targets must be finite"));
+            }
+            let arm = &mut self.arms[i];
+            arm.sim.clone_from(&arm.initial);
+            arm.target = target;
+            arm.action.fill(0.0);
+        }
+        Ok(self.obs().into_pyarray(py))
+    }
+
+    /// Apply actions (n_envs, action_dim) in [−1, 1] (clipped) for one control period on every
+    /// arm (GIL released, parallel). Returns (observations (n_envs, obs_dim) float32,
+    /// rewards (n_envs,) float64, tip distances (n_envs,) float64 [m]).
+    #[allow(clippy::type_complexity)]
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        actions: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<(
+        Bound<'py, PyArray2<f32>>,
+        Bound<'py, PyArray1<f64>>,
+        Bound<'py, PyArray1<f64>>,
+    )> {
+        let (n, m) = (self.arms.len(), self.cfg.n_segments);
+        if actions.shape() != [n, m] {
+            return Err(PyValueError::new_err(format!(
+                "actions has shape {}, expected ({n}, {m})",
+                shape_str(actions.shape())
+            )));
+        }
+        let a: Vec<f64> = actions.as_array().iter().copied().collect();
+        let cfg = self.cfg;
+        let arms = &mut self.arms;
+        let pool = self.pool.as_ref();
+        let result: Result<(), StepError> = py.detach(|| match pool {
+            None => arms
+                .iter_mut()
+                .zip(a.chunks(m))
+                .try_for_each(|(arm, act)| arm.advance(&cfg, act)),
+            Some(pool) => pool.install(|| {
+                arms.par_iter_mut()
+                    .zip(a.par_chunks(m))
+                    .with_max_len(1)
+                    .try_for_each(|(arm, act)| arm.advance(&cfg, act))
+            }),
+        });
+        result.map_err(|e| step_error(py, e))?;
+        let rewards: Vec<f64> = self.arms.iter().map(|arm| arm.reward(&cfg)).collect();
+        let dist: Vec<f64> = self.arms.iter().map(Arm::tip_distance).collect();
+        Ok((
+            self.obs().into_pyarray(py),
+            Array1::from_vec(rewards).into_pyarray(py),
+            Array1::from_vec(dist).into_pyarray(py),
+        ))
+    }
+
+    /// A copy of arm `index` as a `Simulation` (for plotting or inspection).
+    fn simulation(&self, index: usize) -> PyResult<PySimulation> {
+        let arm = self
+            .arms
+            .get(index)
+            .ok_or_else(|| bad("index", index, "[0, n_envs - 1]"))?;
+        Ok(PySimulation {
+            inner: arm.sim.clone(),
+        })
+    }
+}

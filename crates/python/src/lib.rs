@@ -1,0 +1,76 @@
+//! octoarm-python: the `octoarm._octoarm` extension module. Thin bindings only: argument
+//! conversion, NumPy array conversion and error mapping; all physics lives in octoarm-physics,
+//! all control in octoarm-control. The Python package (`python/octoarm`) adds the Gymnasium
+//! environments on top of `ArmBatch`.
+
+use pyo3::create_exception;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+mod arrays;
+mod control;
+mod env;
+mod rod;
+
+create_exception!(
+    octoarm,
+    InstabilityError,
+    PyRuntimeError,
+    "The stability guard stopped a simulation. Attributes: `what`, `value`, `domain` \
+     (\"node\", \"element\" or \"voronoi point\"), `index`, `element` (= `index`), `time` [s], \
+     `step`, `dt` [s], `suggested_dt` [s], `advice`. The simulation keeps the state at which the \
+     guard fired."
+);
+
+/// Map a physics input error to `ValueError`; its text names the argument, value and range.
+pub(crate) fn model_error(e: octoarm_physics::ModelError) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+/// Map a step error to `InstabilityError` carrying its fields as attributes.
+pub(crate) fn step_error(py: Python<'_>, e: octoarm_physics::StepError) -> PyErr {
+    let msg = e.to_string();
+    let err = InstabilityError::new_err(msg);
+    let octoarm_physics::StepError::Unstable {
+        what,
+        value,
+        domain,
+        index,
+        time,
+        step,
+        dt,
+        suggested_dt,
+        advice,
+    } = e;
+    let v = err.value(py);
+    let set = |k: &str, o: Bound<'_, PyAny>| {
+        let _ = v.setattr(k, o);
+    };
+    set("what", what.into_pyobject(py).unwrap().into_any());
+    set("value", value.into_pyobject(py).unwrap().into_any());
+    set("domain", domain.into_pyobject(py).unwrap().into_any());
+    set("index", index.into_pyobject(py).unwrap().into_any());
+    set("element", index.into_pyobject(py).unwrap().into_any());
+    set("time", time.into_pyobject(py).unwrap().into_any());
+    set("step", step.into_pyobject(py).unwrap().into_any());
+    set("dt", dt.into_pyobject(py).unwrap().into_any());
+    set(
+        "suggested_dt",
+        suggested_dt.into_pyobject(py).unwrap().into_any(),
+    );
+    set("advice", advice.into_pyobject(py).unwrap().into_any());
+    err
+}
+
+#[pymodule]
+fn _octoarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("InstabilityError", m.py().get_type::<InstabilityError>())?;
+    m.add_class::<rod::Simulation>()?;
+    m.add_class::<control::Design>()?;
+    m.add_class::<control::OfflineSolver>()?;
+    m.add_class::<control::EnergyShapingController>()?;
+    m.add_class::<env::ArmBatch>()?;
+    m.add_function(wrap_pyfunction!(rod::rust_step_rate, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
