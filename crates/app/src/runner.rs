@@ -46,17 +46,9 @@ pub struct RunReport {
     pub failure: Option<StepError>,
 }
 
-/// Build the simulation a scenario describes. A physics-side rejection is reported like a
-/// scenario error, at the key it concerns.
-pub fn build_simulation(scn: &Scenario) -> Result<Simulation, ScenarioError> {
-    let cfg = &scn.config;
-    let r = &cfg.rod;
-    let located = |key: String, e: ModelError| ScenarioError {
-        file: scn.path.clone(),
-        line: scn.locate(&key),
-        message: format!("{key}: {e}"),
-    };
-    let rod = StraightRod {
+/// The straight, clamped rod of a `[rod]` section (tip diameter resolved to the base's if absent).
+pub fn straight_rod(r: &crate::scenario::RodConfig) -> StraightRod {
+    StraightRod {
         n_elements: r.n_elements,
         length: r.length,
         base_diameter: r.base_diameter,
@@ -72,7 +64,20 @@ pub fn build_simulation(scn: &Scenario) -> Result<Simulation, ScenarioError> {
         normal: r.normal,
         rest_curvature: r.rest_curvature,
         boundary: octoarm_physics::Boundary::ClampedBase,
+    }
+}
+
+/// Build the simulation a scenario describes. A physics-side rejection is reported like a
+/// scenario error, at the key it concerns.
+pub fn build_simulation(scn: &Scenario) -> Result<Simulation, ScenarioError> {
+    let cfg = &scn.config;
+    let r = &cfg.rod;
+    let located = |key: String, e: ModelError| ScenarioError {
+        file: scn.path.clone(),
+        line: scn.locate(&key),
+        message: format!("{key}: {e}"),
     };
+    let rod = straight_rod(r);
     let (model, state) = rod
         .build()
         .map_err(|e| located(format!("rod.{}", field_of(&e)), e))?;

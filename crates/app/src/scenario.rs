@@ -39,6 +39,177 @@ pub struct ScenarioConfig {
     /// `[[obstacle]]`: rigid obstacles, any number.
     #[serde(default, rename = "obstacle", skip_serializing_if = "Vec::is_empty")]
     pub obstacles: Vec<ObstacleConfig>,
+    /// `[controller]`: drive the arm with a controller (a controlled run, see `controlled.rs`);
+    /// without it the rod runs passively under its loads.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller: Option<ControllerConfig>,
+    /// `[solver]`: how the controller's design w̄ is computed (controlled runs only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<SolverConfig>,
+    /// `[[target]]`: task targets of the tip in time order (controlled runs only).
+    #[serde(default, rename = "target", skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<TargetConfig>,
+    /// `[via_path]`: a path the design target follows before the task target (controlled runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub via_path: Option<ViaPathConfig>,
+    /// `[grasp]`: grasp a sphere instead of reaching (controlled runs only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grasp: Option<GraspConfig>,
+}
+
+/// The kinds of `[controller]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ControllerKind {
+    /// The energy-shaping law (control spec §4) with the mass-proportional damping of
+    /// `[damping] rate`.
+    EnergyShaping,
+}
+
+/// `[controller]`: the closed loop of a controlled run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerConfig {
+    /// The control law.
+    pub kind: ControllerKind,
+    /// Simulated time between samples of the scalar series (`series.npz`, `distance.csv`) [s],
+    /// ≥ dt; default 1e-3.
+    #[serde(default = "default_series_interval")]
+    pub series_interval: f64,
+}
+
+/// How the design is scheduled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverModeKind {
+    /// Every design solved before t = 0 (control spec §3.2).
+    #[default]
+    Offline,
+    /// A few warm-started iterations every `update_every` steps (control spec §3.3).
+    Online,
+}
+
+/// The solver's update rule (control spec §3.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RuleKind {
+    /// Rule Q: L-BFGS in the stiffness metric.
+    #[default]
+    Lbfgs,
+    /// Rule P: stiffness-preconditioned gradient step.
+    Preconditioned,
+    /// Rule R: the paper's plain Hamiltonian-gradient step.
+    Paper,
+}
+
+/// `[solver]`: the forward–backward solver and the design schedule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverConfig {
+    /// "offline" (default) or "online".
+    #[serde(default)]
+    pub mode: SolverModeKind,
+    /// "lbfgs" (default), "preconditioned" or "paper".
+    #[serde(default)]
+    pub rule: RuleKind,
+    /// L-BFGS memory (rule lbfgs), in [1, 1000]; default 10.
+    #[serde(default = "default_lbfgs_memory")]
+    pub lbfgs_memory: usize,
+    /// Step η (rules preconditioned, default 1, and paper, default 0.005 m²/N), > 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eta: Option<f64>,
+    /// Lower clamp of the stretch ν3 (rule paper), > 0; default 0.1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_stretch: Option<f64>,
+    /// Tip weight μ_tip [N/m], ≥ 0; default 1e3.
+    #[serde(default = "default_mu_tip")]
+    pub mu_tip: f64,
+    /// Obstacle weight ξ [N/m²], ≥ 0; default 1e5.
+    #[serde(default = "default_xi")]
+    pub xi: f64,
+    /// Diameter of the design stiffness floor [m], ≥ 0; default 4e-3 (0 = paper-literal).
+    #[serde(default = "default_floor")]
+    pub design_floor_diameter: f64,
+    /// Planar strains (the paper's problem in the x–y plane; default true) or all six.
+    #[serde(default = "default_true")]
+    pub planar: bool,
+    /// Stop when the strain residual is at most this, > 0; default 1e-8.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Iterations over which the relative decrease of J is measured, ≥ 1; default 20.
+    #[serde(default = "default_stall_window")]
+    pub stall_window: usize,
+    /// Stop when J fell by less than this relative amount over the window, ≥ 0; default 1e-12.
+    #[serde(default = "default_stall_tolerance")]
+    pub stall_tolerance: f64,
+    /// Largest number of sweeps of an offline solve, ≥ 1; default 20000.
+    #[serde(default = "default_max_sweeps")]
+    pub max_sweeps: usize,
+    /// Online: steps between design updates, ≥ 1; default 100 (1 ms at dt = 1e-5 s).
+    #[serde(default = "default_update_every")]
+    pub update_every: u64,
+    /// Online: solver iterations per update, ≥ 1; default 10.
+    #[serde(default = "default_iterations_per_update")]
+    pub iterations_per_update: usize,
+    /// Online: cap each strain's change per update so that the first design needs about this
+    /// long to form [s], > 0; default none (no trust region).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trust_form_time: Option<f64>,
+    /// Offline grasp: stages of the μ_grasp continuation (scales 1e-3 … 1), ≥ 1; default 4.
+    #[serde(default = "default_grasp_stages")]
+    pub grasp_stages: usize,
+    /// Offline: apply each new design through a linear ramp of this length [s], ≥ 0; default 0
+    /// (switch at once).
+    #[serde(default)]
+    pub ramp_time: f64,
+    /// Offline: steps between ramp increments, ≥ 1; default 100.
+    #[serde(default = "default_update_every")]
+    pub ramp_every: u64,
+}
+
+/// `[[target]]`: a tip target in force from `from` on, r*(t) = position + velocity (t − from).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetConfig {
+    /// Target at time `from` [m], lab frame.
+    pub position: Vec3,
+    /// Start of this target [s], ≥ 0; default 0. Targets must be in time order.
+    #[serde(default)]
+    pub from: f64,
+    /// Constant velocity [m/s]; default 0 (a static target).
+    #[serde(default)]
+    pub velocity: Vec3,
+}
+
+/// `[via_path]`: the design target runs at constant speed along `points` from `start` to `end`
+/// [s] and the task target takes over at `end`; the distance d is always to the task target.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ViaPathConfig {
+    /// Corner points [m], at least two.
+    pub points: Vec<Vec3>,
+    /// Time at the first point [s], ≥ 0; default 0.
+    #[serde(default)]
+    pub start: f64,
+    /// Time at the last point [s], > start.
+    pub end: f64,
+}
+
+/// `[grasp]`: wrap the arm's `interval` around a sphere (control spec §5.5); the sphere is also
+/// a physical obstacle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GraspConfig {
+    /// Centre of the sphere [m].
+    pub center: Vec3,
+    /// Diameter of the sphere [m], > 0.
+    pub diameter: f64,
+    /// μ_grasp on the interval [N/m], > 0; default 1e3.
+    #[serde(default = "default_mu_tip")]
+    pub mu_grasp: f64,
+    /// Grasping interval as fractions of L0, `[a, 1.0]` with 0 ≤ a < 1; default [0.4, 1.0].
+    #[serde(default = "default_grasp_interval")]
+    pub interval: [f64; 2],
 }
 
 /// `[rod]`: a straight rod, uniform or linearly tapered, clamped at the origin.
@@ -240,6 +411,48 @@ fn default_beta() -> f64 {
 fn default_zeta() -> f64 {
     0.5
 }
+fn default_series_interval() -> f64 {
+    1.0e-3
+}
+fn default_lbfgs_memory() -> usize {
+    10
+}
+fn default_mu_tip() -> f64 {
+    1.0e3
+}
+fn default_xi() -> f64 {
+    1.0e5
+}
+fn default_floor() -> f64 {
+    4.0e-3
+}
+fn default_true() -> bool {
+    true
+}
+fn default_tolerance() -> f64 {
+    1.0e-8
+}
+fn default_stall_window() -> usize {
+    20
+}
+fn default_stall_tolerance() -> f64 {
+    1.0e-12
+}
+fn default_max_sweeps() -> usize {
+    20_000
+}
+fn default_update_every() -> u64 {
+    100
+}
+fn default_iterations_per_update() -> usize {
+    10
+}
+fn default_grasp_stages() -> usize {
+    4
+}
+fn default_grasp_interval() -> [f64; 2] {
+    [0.4, 1.0]
+}
 
 /// Largest accepted element count (memory and time grow with it; a typo guard).
 pub const MAX_ELEMENTS: usize = 100_000;
@@ -285,6 +498,10 @@ pub struct Invalid {
 
 impl fmt::Display for Invalid {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.value.is_empty() {
+            // A rule about the section as a whole, not a value out of range.
+            return write!(f, "{}: {}", self.key, self.range);
+        }
         write!(
             f,
             "{} = {} is outside the allowed range {}",
@@ -373,6 +590,23 @@ impl ScenarioConfig {
         for load in &mut self.loads {
             if load.kind.can_ramp() && load.ramp_time.is_none() {
                 load.ramp_time = Some(0.0);
+            }
+        }
+        if self.controller.is_some() && self.solver.is_none() {
+            self.solver = Some(
+                toml::from_str("").expect("every [solver] key has a default"),
+            );
+        }
+        if let Some(sv) = &mut self.solver {
+            match sv.rule {
+                RuleKind::Lbfgs => {}
+                RuleKind::Preconditioned => {
+                    sv.eta.get_or_insert(1.0);
+                }
+                RuleKind::Paper => {
+                    sv.eta.get_or_insert(0.005);
+                    sv.min_stretch.get_or_insert(0.1);
+                }
             }
         }
     }
@@ -480,6 +714,178 @@ impl ScenarioConfig {
             positive(&format!("obstacle[{i}].diameter"), ob.diameter)?;
             finite_vec(&format!("obstacle[{i}].velocity"), ob.velocity)?;
         }
+        self.validate_control()
+    }
+
+    /// The sections of a controlled run: present only with `[controller]`, in range, and no
+    /// passive-only feature (loads, moving obstacles, per-length damping, stepper settings).
+    fn validate_control(&self) -> Result<(), Invalid> {
+        let Some(ctrl) = &self.controller else {
+            let needs = |key: &str| {
+                bad(
+                    key,
+                    "",
+                    "allowed only with [controller] (kind = \"energy_shaping\"); add it or remove this section",
+                )
+            };
+            if self.solver.is_some() {
+                return Err(needs("solver"));
+            }
+            if !self.targets.is_empty() {
+                return Err(needs("target"));
+            }
+            if self.via_path.is_some() {
+                return Err(needs("via_path"));
+            }
+            if self.grasp.is_some() {
+                return Err(needs("grasp"));
+            }
+            return Ok(());
+        };
+        let t = &self.time;
+        if !(ctrl.series_interval.is_finite() && ctrl.series_interval >= t.dt * (1.0 - 1e-9)) {
+            return Err(bad(
+                "controller.series_interval",
+                ctrl.series_interval,
+                format!("[time.dt = {:e}, inf), finite", t.dt),
+            ));
+        }
+        if !self.loads.is_empty() {
+            return Err(bad(
+                "load",
+                "",
+                "a run with [controller] takes no [[load]]; remove the loads",
+            ));
+        }
+        if self.damping.gamma != 0.0 {
+            return Err(bad(
+                "damping.gamma",
+                self.damping.gamma,
+                "of 0 with [controller]: the controller's damping is [damping] rate",
+            ));
+        }
+        if self.numerics != NumericsConfig::default() {
+            return Err(bad(
+                "numerics",
+                "",
+                "a run with [controller] uses the default stepper settings (energy_consistent = false, guard_interval = 100); remove [numerics]",
+            ));
+        }
+        for (i, ob) in self.obstacles.iter().enumerate() {
+            if ob.velocity != [0.0; 3] {
+                return Err(bad_vec(
+                    &format!("obstacle[{i}].velocity"),
+                    ob.velocity,
+                    "of [0, 0, 0] with [controller]: controlled runs take fixed obstacles",
+                ));
+            }
+        }
+        if self.targets.is_empty() && self.grasp.is_none() {
+            return Err(bad(
+                "controller",
+                "",
+                "a controlled run needs at least one [[target]] or a [grasp]; add one",
+            ));
+        }
+        if !self.targets.is_empty() && self.grasp.is_some() {
+            return Err(bad(
+                "grasp",
+                "",
+                "a grasp has no tip target: give either [[target]] or [grasp], not both",
+            ));
+        }
+        let mut last_from = 0.0;
+        for (i, tg) in self.targets.iter().enumerate() {
+            finite_vec(&format!("target[{i}].position"), tg.position)?;
+            finite_vec(&format!("target[{i}].velocity"), tg.velocity)?;
+            non_negative(&format!("target[{i}].from"), tg.from)?;
+            if i > 0 && tg.from <= last_from {
+                return Err(bad(
+                    &format!("target[{i}].from"),
+                    tg.from,
+                    format!("(target[{}].from = {last_from}, inf): targets in time order", i - 1),
+                ));
+            }
+            last_from = tg.from;
+        }
+        if let Some(v) = &self.via_path {
+            if self.targets.is_empty() {
+                return Err(bad(
+                    "via_path",
+                    "",
+                    "needs a [[target]]: the path leads to the task target",
+                ));
+            }
+            if v.points.len() < 2 {
+                return Err(bad(
+                    "via_path.points",
+                    v.points.len(),
+                    "of at least 2 points",
+                ));
+            }
+            for p in &v.points {
+                finite_vec("via_path.points", *p)?;
+            }
+            non_negative("via_path.start", v.start)?;
+            if !(v.end.is_finite() && v.end > v.start) {
+                return Err(bad(
+                    "via_path.end",
+                    v.end,
+                    format!("(via_path.start = {}, inf), finite", v.start),
+                ));
+            }
+        }
+        if let Some(g) = &self.grasp {
+            finite_vec("grasp.center", g.center)?;
+            positive("grasp.diameter", g.diameter)?;
+            positive("grasp.mu_grasp", g.mu_grasp)?;
+            let [a, b] = g.interval;
+            if !(a.is_finite() && (0.0..1.0).contains(&a) && b == 1.0) {
+                return Err(bad(
+                    "grasp.interval",
+                    format!("[{a}, {b}]"),
+                    "[a, 1.0] with 0 <= a < 1 (the interval ends at the tip)",
+                ));
+            }
+        }
+        let sv = self
+            .solver
+            .as_ref()
+            .expect("resolve() fills [solver] for a controlled run");
+        if !(1..=1000).contains(&sv.lbfgs_memory) {
+            return Err(bad("solver.lbfgs_memory", sv.lbfgs_memory, "[1, 1000]"));
+        }
+        if let Some(eta) = sv.eta {
+            positive("solver.eta", eta)?;
+            if sv.rule == RuleKind::Preconditioned && eta > 1.0 {
+                return Err(bad("solver.eta", eta, "(0, 1] for rule = \"preconditioned\""));
+            }
+        }
+        if let Some(m) = sv.min_stretch {
+            positive("solver.min_stretch", m)?;
+        }
+        non_negative("solver.mu_tip", sv.mu_tip)?;
+        non_negative("solver.xi", sv.xi)?;
+        non_negative("solver.design_floor_diameter", sv.design_floor_diameter)?;
+        positive("solver.tolerance", sv.tolerance)?;
+        non_negative("solver.stall_tolerance", sv.stall_tolerance)?;
+        let at_least_one = |key: &str, v: u64| {
+            if v >= 1 {
+                Ok(())
+            } else {
+                Err(bad(key, v, "[1, inf)"))
+            }
+        };
+        at_least_one("solver.stall_window", sv.stall_window as u64)?;
+        at_least_one("solver.max_sweeps", sv.max_sweeps as u64)?;
+        at_least_one("solver.update_every", sv.update_every)?;
+        at_least_one("solver.iterations_per_update", sv.iterations_per_update as u64)?;
+        at_least_one("solver.grasp_stages", sv.grasp_stages as u64)?;
+        at_least_one("solver.ramp_every", sv.ramp_every)?;
+        if let Some(tf) = sv.trust_form_time {
+            positive("solver.trust_form_time", tf)?;
+        }
+        non_negative("solver.ramp_time", sv.ramp_time)?;
         Ok(())
     }
 }

@@ -502,6 +502,8 @@ pub struct Frame {
     pub time: f64,
     /// Centreline, n + 1 nodes [m].
     pub position: Vec<Vec3>,
+    /// Node velocities, n + 1 nodes [m/s].
+    pub velocity: Vec<Vec3>,
     /// Directors, n elements (rows d1, d2, d3).
     pub director: Vec<Mat3>,
     /// Forward map of the w̄ in force, n + 1 nodes [m].
@@ -869,6 +871,7 @@ pub fn run_experiment(
             sink.frame(&Frame {
                 time: t,
                 position: sim.state.position.clone(),
+                velocity: sim.state.velocity.clone(),
                 director: sim.state.director.clone(),
                 desired: shape.position().to_vec(),
                 target: spec.target_at(t).filter(|_| spec.grasp.is_none()),

@@ -11,6 +11,7 @@ mod arrays;
 mod control;
 mod env;
 mod rod;
+mod scenario;
 
 create_exception!(
     octoarm,
@@ -71,6 +72,7 @@ fn _octoarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<control::EnergyShapingController>()?;
     m.add_class::<env::ArmBatch>()?;
     m.add_function(wrap_pyfunction!(rod::rust_step_rate, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::run_scenario, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
