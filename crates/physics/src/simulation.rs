@@ -339,7 +339,8 @@ impl Simulation {
         let q = &mut self.state.director[..n];
         let w = &self.state.omega[..n];
         // |h ω| < 0.1 everywhere (the guard enforces |ω| dt ≤ 0.2) lets every frame take the
-        // branch-free series form, which vectorises; it is bit-identical to `exp_neg_skew` there.
+        // series form with no per-frame branch or libm call; it is bit-identical to
+        // `exp_neg_skew` there.
         let series_ok = w.iter().fold(true, |ok, wj| {
             let a = [h * wj[0], h * wj[1], h * wj[2]];
             ok & (dot(a, a) < EXP_SERIES_MAX_SQ)
