@@ -207,7 +207,8 @@ impl TrajectorySink {
             return Err(e.context("recording the frames"));
         }
         let t = self.time.len();
-        let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+        let file =
+            File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
         let mut npz = ZipWriter::new(BufWriter::with_capacity(1 << 16, file));
         write_member(&mut npz, "time", &[t], &self.time)?;
         for spool in self.spools {
@@ -253,7 +254,12 @@ pub struct ControlledRun {
 /// write trajectory.npz, series.npz, distance.csv, summary.json, scenario.toml, shapes.png and
 /// shapes.gif (figures unless `figures` is false). Errors are I/O or internal failures; a run
 /// the driver stops is reported in `ControlledRun::failure`.
-pub fn run(scn: &Scenario, spec: &ExperimentSpec, out: OutputDir, figures: bool) -> Result<ControlledRun> {
+pub fn run(
+    scn: &Scenario,
+    spec: &ExperimentSpec,
+    out: OutputDir,
+    figures: bool,
+) -> Result<ControlledRun> {
     let wall = Instant::now();
     tracing::info!(
         "{}: controlled run, {} s at dt = {:e} s, output {}",
@@ -314,7 +320,8 @@ fn write_series(path: &Path, o: &ExperimentOutcome) -> Result<()> {
     write_member(&mut npz, "time", &[t], &o.column(|s| s.time))?;
     write_member(&mut npz, "tip", &[t, 3], &flat3(&|s| s.tip))?;
     write_member(&mut npz, "target", &[t, 3], &flat3(&|s| s.target))?;
-    let columns: [(&str, fn(&octoarm_control::Sample) -> f64); 10] = [
+    type Column = (&'static str, fn(&octoarm_control::Sample) -> f64);
+    let columns: [Column; 10] = [
         ("distance", |s| s.distance),
         ("hamiltonian", |s| s.hamiltonian),
         ("kinetic", |s| s.kinetic),
@@ -418,4 +425,78 @@ fn summary_json(scn: &Scenario, spec: &ExperimentSpec, run: &ControlledRun) -> s
                 "obstacles"],
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::paper::paper_scenarios;
+    use crate::scenario::Scenario;
+
+    /// The scenario files under scenarios/paper/ and the control crate's `paper_a()`…`paper_d()`
+    /// are two descriptions of the same experiments: `octoarm run scenarios/paper/X.toml` and
+    /// `octoarm paper` must run exactly the driver's spec, field by field.
+    #[test]
+    fn paper_scenarios_resolve_to_the_drivers_specs() {
+        let scenarios = paper_scenarios(None).unwrap();
+        let expected = ExperimentSpec::paper_all();
+        assert_eq!(scenarios.len(), expected.len());
+        for (scn, want) in scenarios.iter().zip(&expected) {
+            let got = experiment_spec(scn).expect("a controlled scenario");
+            assert_eq!(&got, want, "{}", scn.path.display());
+            // The file on disk is the compiled-in text, and its resolved form re-runs the same.
+            let disk = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../..")
+                .join(&scn.path);
+            let from_disk = Scenario::load(&disk).unwrap();
+            assert_eq!(experiment_spec(&from_disk).as_ref(), Some(want));
+            let again = Scenario::from_str(&scn.path, &scn.resolved_toml()).unwrap();
+            assert_eq!(experiment_spec(&again).as_ref(), Some(want));
+        }
+    }
+
+    #[test]
+    fn passive_scenarios_have_no_spec_and_control_sections_need_a_controller() {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/arm_tip_force.toml"),
+        )
+        .unwrap();
+        let scn = Scenario::from_str(Path::new("p.toml"), &text).unwrap();
+        assert!(experiment_spec(&scn).is_none());
+        let e = Scenario::from_str(
+            Path::new("p.toml"),
+            &format!("{text}\n[[target]]\nposition = [0.1, 0.1, 0.0]\n"),
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("target: allowed only with [controller]"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn control_sections_report_unknown_keys_and_ranges_with_lines() {
+        let (_, _, text) = crate::paper::SCENARIOS[0];
+        let e = Scenario::from_str(Path::new("a.toml"), &text.replace("mu_tip =", "mu_tipp ="))
+            .unwrap_err();
+        assert!(
+            e.message
+                .contains("unknown key `mu_tipp` in [solver]; did you mean `mu_tip`?"),
+            "{e}"
+        );
+        assert!(e.line.is_some());
+        let e = Scenario::from_str(
+            Path::new("a.toml"),
+            &text.replace("from = 1.8", "from = -1.8"),
+        )
+        .unwrap_err();
+        let line = text
+            .lines()
+            .position(|l| l.starts_with("from = 1.8"))
+            .unwrap()
+            + 1;
+        assert_eq!(e.line.map(|l| l.0), Some(line), "{e}");
+        assert!(e.message.contains("target[1].from = -1.8"), "{e}");
+    }
 }

@@ -12,7 +12,8 @@ use std::sync::Once;
 
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
-fn ensure_font() {
+/// Register the embedded DejaVu Sans as "sans-serif" (once).
+pub(crate) fn ensure_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The font is a known-good TTF shipped in the crate; failure would be a build mistake.

@@ -1,10 +1,16 @@
 //! octoarm, the application: scenario files (`scenario`), the runner that turns a scenario into a
 //! simulation and steps it (`runner`), the recorder that streams frames (`recorder`), output files
-//! (`output`) and figures (`figures`). The physics lives in `octoarm-physics`; this crate owns
-//! files, the command line's work and everything a user reads. The binary is a thin clap layer.
+//! (`output`) and figures (`figures`); controlled runs (`controlled`) and the paper's experiments
+//! (`paper`, `paper_figures`, `gif`) on top of `octoarm-control`. The physics lives in
+//! `octoarm-physics`; this crate owns files, the command line's work and everything a user
+//! reads. The binary is a thin clap layer.
 
+pub mod controlled;
 pub mod figures;
+pub mod gif;
 pub mod output;
+pub mod paper;
+pub mod paper_figures;
 pub mod recorder;
 pub mod runner;
 pub mod scenario;

@@ -7,6 +7,7 @@ use clap::{ArgAction, Parser, Subcommand};
 use octoarm::output::{OutputDir, OutputError};
 use octoarm::runner::{self, RunOptions};
 use octoarm::scenario::{Scenario, ScenarioError};
+use octoarm::{controlled, paper};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -14,7 +15,8 @@ use std::process::ExitCode;
 /// Simulate a soft octopus arm (a discrete 3D Cosserat rod) described by a TOML scenario.
 ///
 /// A scenario has the sections [rod], [time], and optionally [damping], [numerics], [contact],
-/// [[load]] and [[obstacle]]; see the files in scenarios/ and the README.
+/// [[load]] and [[obstacle]]; a controlled run adds [controller], [solver], [[target]],
+/// [via_path] or [grasp]. See the files in scenarios/ and the README.
 #[derive(Debug, Parser)]
 #[command(name = "octoarm", version, propagate_version = true)]
 #[command(
@@ -49,6 +51,24 @@ enum Command {
         /// Override [time] duration, in simulated seconds (recorded in the output's scenario.toml).
         #[arg(long, value_name = "SECONDS")]
         duration: Option<f64>,
+    },
+    /// Run the paper's four experiments (scenarios/paper/*.toml, compiled in) in parallel and
+    /// write, into OUT, one folder per experiment (two-targets/, moving-target/, obstacles/,
+    /// grasp/: trajectory.npz, series.npz, distance.csv, shapes.png, shapes.gif, summary.json,
+    /// scenario.toml) as each completes, then distance.png and report.md.
+    ///
+    /// If an experiment fails, the others' outputs are still written and the exit code is 1.
+    Paper {
+        /// Output directory.
+        #[arg(short, long, value_name = "DIR", default_value = "results")]
+        out: PathBuf,
+        /// Shorten (or lengthen) every experiment to this many simulated seconds (the paper's
+        /// runs last 4 s; acceptance checks about later times are reported as undecided).
+        #[arg(long, value_name = "SECONDS")]
+        duration: Option<f64>,
+        /// Worker threads [default: the number of cores, at most 4].
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
     },
     /// Validate a scenario without running it; print the rod's stable time step, the number of
     /// steps and frames, and any warnings.
@@ -120,6 +140,36 @@ fn run(cli: Cli) -> Result<()> {
             print!("{}", octoarm::check_report(&scn)?);
             Ok(())
         }
+        Command::Paper {
+            out,
+            duration,
+            threads,
+        } => {
+            let scenarios = paper::paper_scenarios(duration)?;
+            for scn in &scenarios {
+                runner::build_simulation(scn)?;
+            }
+            paper::prepare_root(&out)?;
+            let threads = threads.unwrap_or_else(paper::default_threads);
+            let report = paper::run_paper(&scenarios, &out, threads, true, !cli.quiet)?;
+            if !report.all_ok() {
+                return Err(RunFailed {
+                    message: format!(
+                        "not every experiment completed; the others' outputs and report.md are in {}",
+                        out.display()
+                    ),
+                }
+                .into());
+            }
+            if !cli.quiet {
+                println!(
+                    "wrote {} (4 experiments, distance.png, report.md) in {:.1} s",
+                    out.display(),
+                    report.wall_seconds
+                );
+            }
+            Ok(())
+        }
         Command::Run {
             scenario,
             out,
@@ -131,6 +181,33 @@ fn run(cli: Cli) -> Result<()> {
             runner::build_simulation(&scn)?;
             let target = out.unwrap_or_else(|| octoarm::default_out_dir(&scn));
             let out = OutputDir::prepare(&target)?;
+            if let Some(spec) = controlled::experiment_spec(&scn) {
+                let run = controlled::run(&scn, &spec, out, true)?;
+                if let Some(failure) = run.failure {
+                    return Err(RunFailed {
+                        message: format!(
+                            "{failure}\n  wrote the {} frames recorded before the failure to {} (see summary.json)",
+                            run.frames,
+                            run.out_dir.display()
+                        ),
+                    }
+                    .into());
+                }
+                if !cli.quiet {
+                    let o = run
+                        .outcome
+                        .as_ref()
+                        .expect("a completed run has an outcome");
+                    println!(
+                        "wrote {} ({} frames, final distance {:.2e} L0, {:.1} s wall)",
+                        run.out_dir.display(),
+                        run.frames,
+                        o.summary.final_distance,
+                        run.wall_seconds
+                    );
+                }
+                return Ok(());
+            }
             let opts = RunOptions {
                 progress: !cli.quiet && std::io::stderr().is_terminal(),
                 no_figures: false,

@@ -593,9 +593,7 @@ impl ScenarioConfig {
             }
         }
         if self.controller.is_some() && self.solver.is_none() {
-            self.solver = Some(
-                toml::from_str("").expect("every [solver] key has a default"),
-            );
+            self.solver = Some(toml::from_str("").expect("every [solver] key has a default"));
         }
         if let Some(sv) = &mut self.solver {
             match sv.rule {
@@ -803,7 +801,10 @@ impl ScenarioConfig {
                 return Err(bad(
                     &format!("target[{i}].from"),
                     tg.from,
-                    format!("(target[{}].from = {last_from}, inf): targets in time order", i - 1),
+                    format!(
+                        "(target[{}].from = {last_from}, inf): targets in time order",
+                        i - 1
+                    ),
                 ));
             }
             last_from = tg.from;
@@ -858,7 +859,11 @@ impl ScenarioConfig {
         if let Some(eta) = sv.eta {
             positive("solver.eta", eta)?;
             if sv.rule == RuleKind::Preconditioned && eta > 1.0 {
-                return Err(bad("solver.eta", eta, "(0, 1] for rule = \"preconditioned\""));
+                return Err(bad(
+                    "solver.eta",
+                    eta,
+                    "(0, 1] for rule = \"preconditioned\"",
+                ));
             }
         }
         if let Some(m) = sv.min_stretch {
@@ -879,7 +884,10 @@ impl ScenarioConfig {
         at_least_one("solver.stall_window", sv.stall_window as u64)?;
         at_least_one("solver.max_sweeps", sv.max_sweeps as u64)?;
         at_least_one("solver.update_every", sv.update_every)?;
-        at_least_one("solver.iterations_per_update", sv.iterations_per_update as u64)?;
+        at_least_one(
+            "solver.iterations_per_update",
+            sv.iterations_per_update as u64,
+        )?;
         at_least_one("solver.grasp_stages", sv.grasp_stages as u64)?;
         at_least_one("solver.ramp_every", sv.ramp_every)?;
         if let Some(tf) = sv.trust_form_time {

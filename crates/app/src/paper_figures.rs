@@ -1,0 +1,680 @@
+//! Figures of controlled runs, in the style of the paper's Fig. 3 and Fig. 4 (control spec §5.6):
+//! `shapes.png` (arm shapes at 8 instants in purple shades, desired shape in green, targets as
+//! red crosses, obstacles as grey discs, axes in units of L0), the animated `shapes.gif`, and the
+//! run-wide `distance.png`. Drawn from recorded frames and series only.
+
+use crate::figures::ensure_font;
+use crate::gif::GifWriter;
+use anyhow::{anyhow, Result};
+use octoarm_control::{ExperimentSpec, SphereSpec};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::Path;
+
+/// One recorded shape frame, kept for the figures.
+#[derive(Debug, Clone)]
+pub struct FigureFrame {
+    /// Time [s].
+    pub time: f64,
+    /// Centreline [m], n + 1 nodes.
+    pub position: Vec<[f64; 3]>,
+    /// Desired shape (forward map of the design in force) [m], n + 1 nodes.
+    pub desired: Vec<[f64; 3]>,
+    /// Task target in force [m] (None for a grasp).
+    pub target: Option<[f64; 3]>,
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("{e:?}")
+}
+
+/// Green of the desired shape.
+const DESIRED: RGBColor = RGBColor(34, 160, 60);
+/// Light green of B's many desired shapes.
+const DESIRED_LIGHT: RGBColor = RGBColor(150, 215, 150);
+/// Red of the targets.
+const TARGET: RGBColor = RGBColor(220, 20, 30);
+/// Grey of the obstacles.
+const OBSTACLE: RGBColor = RGBColor(170, 170, 170);
+
+/// Purple shade for `u` in [0, 1]: light (early) to dark (late).
+pub fn purple(u: f64) -> RGBColor {
+    let u = u.clamp(0.0, 1.0);
+    let (a, b) = ((205.0, 180.0, 235.0), (60.0, 10.0, 110.0));
+    let mix = |p: f64, q: f64| (p + u * (q - p)).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// Start times of the segments of constant task target (one segment for a grasp or a single
+/// target).
+fn segment_starts(spec: &ExperimentSpec) -> Vec<f64> {
+    let mut s: Vec<f64> = spec.targets.iter().map(|t| t.from.max(0.0)).collect();
+    if s.is_empty() {
+        s.push(0.0);
+    }
+    s[0] = 0.0;
+    s
+}
+
+/// Whether the task target moves (experiment B).
+fn moving_target(spec: &ExperimentSpec) -> bool {
+    spec.targets.iter().any(|t| t.velocity != [0.0; 3])
+}
+
+/// Frames drawn in `shapes.png`: 8 evenly spaced over the run, split evenly between the
+/// segments (A: 4 per segment), each segment's first and last frame included. Returns, per
+/// segment, the frame indices.
+pub fn picked_frames(spec: &ExperimentSpec, frames: &[FigureFrame]) -> Vec<Vec<usize>> {
+    let starts = segment_starts(spec);
+    let per = (8 / starts.len()).max(2);
+    let mut out = Vec::new();
+    for (k, &start) in starts.iter().enumerate() {
+        let end = starts.get(k + 1).copied().unwrap_or(f64::INFINITY);
+        let idx: Vec<usize> = (0..frames.len())
+            .filter(|&i| frames[i].time >= start - 1e-9 && frames[i].time < end - 1e-9)
+            .collect();
+        if idx.is_empty() {
+            continue;
+        }
+        let m = per.min(idx.len());
+        let mut pick: Vec<usize> = (0..m)
+            .map(|j| idx[(j * (idx.len() - 1) + (m - 1).max(1) / 2) / (m - 1).max(1)])
+            .collect();
+        pick.dedup();
+        out.push(pick);
+    }
+    out
+}
+
+/// Axis limits with equal scales: the box [lo, hi] widened about its centre to the aspect of a
+/// plot of `w` × `h` pixels, with a 5 % margin.
+fn equal_box(lo: [f64; 2], hi: [f64; 2], w: f64, h: f64) -> (f64, f64, f64, f64) {
+    let pad = 0.05 * (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-6);
+    let (x0, x1, y0, y1) = (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad);
+    let scale = ((x1 - x0) / w).max((y1 - y0) / h);
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    (
+        cx - 0.5 * scale * w,
+        cx + 0.5 * scale * w,
+        cy - 0.5 * scale * h,
+        cy + 0.5 * scale * h,
+    )
+}
+
+/// Bounding box (in units of L0) of the given points and spheres.
+fn bounds<'a>(
+    points: impl Iterator<Item = &'a [f64; 3]>,
+    spheres: &[SphereSpec],
+    length: f64,
+) -> ([f64; 2], [f64; 2]) {
+    let mut lo = [0.0f64; 2];
+    let mut hi = [0.0f64; 2];
+    for p in points {
+        for c in 0..2 {
+            if p[c].is_finite() {
+                lo[c] = lo[c].min(p[c] / length);
+                hi[c] = hi[c].max(p[c] / length);
+            }
+        }
+    }
+    for s in spheres {
+        let r = 0.5 * s.diameter / length;
+        for c in 0..2 {
+            lo[c] = lo[c].min(s.center[c] / length - r);
+            hi[c] = hi[c].max(s.center[c] / length + r);
+        }
+    }
+    (lo, hi)
+}
+
+fn scaled(x: &[[f64; 3]], length: f64) -> Vec<(f64, f64)> {
+    x.iter().map(|p| (p[0] / length, p[1] / length)).collect()
+}
+
+fn disc(s: &SphereSpec, length: f64) -> Vec<(f64, f64)> {
+    let r = 0.5 * s.diameter / length;
+    (0..=120)
+        .map(|k| {
+            let a = k as f64 / 120.0 * std::f64::consts::TAU;
+            (
+                s.center[0] / length + r * a.cos(),
+                s.center[1] / length + r * a.sin(),
+            )
+        })
+        .collect()
+}
+
+fn tick(v: f64) -> String {
+    let s = format!("{v:.1}");
+    if s == "-0.0" {
+        "0.0".into()
+    } else {
+        s
+    }
+}
+
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// A polyline `width` pixels wide drawn as filled quads with round joints: plotters' own wide
+/// lines leave jagged edges. `per_px` is data units per pixel (equal on both axes).
+fn thick_path(
+    chart: &mut Chart,
+    pts: &[(f64, f64)],
+    colour: RGBColor,
+    width: f64,
+    per_px: f64,
+) -> Result<()> {
+    let h = 0.5 * width * per_px;
+    let style = colour.filled();
+    chart
+        .draw_series(pts.windows(2).filter_map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+            let l = (dx * dx + dy * dy).sqrt();
+            (l > 0.0).then(|| {
+                let (nx, ny) = (-dy / l * h, dx / l * h);
+                Polygon::new(
+                    vec![
+                        (a.0 + nx, a.1 + ny),
+                        (b.0 + nx, b.1 + ny),
+                        (b.0 - nx, b.1 - ny),
+                        (a.0 - nx, a.1 - ny),
+                    ],
+                    style,
+                )
+            })
+        }))
+        .map_err(err)?;
+    let r = (0.5 * width).round().max(1.0) as i32;
+    chart
+        .draw_series(pts.iter().map(|&p| Circle::new(p, r - 1, style)))
+        .map_err(err)?;
+    Ok(())
+}
+
+fn draw_spheres(chart: &mut Chart, spheres: &[SphereSpec], length: f64) -> Result<()> {
+    for s in spheres {
+        let ring = disc(s, length);
+        chart
+            .draw_series(std::iter::once(Polygon::new(
+                ring.clone(),
+                OBSTACLE.filled(),
+            )))
+            .map_err(err)?;
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                ring,
+                RGBColor(120, 120, 120).stroke_width(1),
+            )))
+            .map_err(err)?;
+    }
+    Ok(())
+}
+
+fn draw_cross(chart: &mut Chart, p: [f64; 3], length: f64, size: i32) -> Result<()> {
+    chart
+        .draw_series(std::iter::once(Cross::new(
+            (p[0] / length, p[1] / length),
+            size,
+            TARGET.stroke_width(3),
+        )))
+        .map_err(err)?;
+    Ok(())
+}
+
+fn draw_base(chart: &mut Chart) -> Result<()> {
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(-0.02, -0.06), (0.0, 0.06)],
+            BLACK.filled(),
+        )))
+        .map_err(err)?;
+    Ok(())
+}
+
+/// `shapes.png` in the style of the paper's Fig. 3 (control spec §5.6).
+pub fn shapes_png(
+    path: &Path,
+    spec: &ExperimentSpec,
+    frames: &[FigureFrame],
+    title: &str,
+) -> Result<()> {
+    ensure_font();
+    if frames.is_empty() {
+        return Err(anyhow!("no recorded frames"));
+    }
+    let length = spec.arm.length;
+    let spheres = spec.spheres();
+    let segments = picked_frames(spec, frames);
+    let picks: Vec<usize> = segments.iter().flatten().copied().collect();
+    let moving = moving_target(spec);
+    let last_of_segment: Vec<usize> = segments.iter().filter_map(|s| s.last().copied()).collect();
+    let desired_drawn: Vec<usize> = if moving {
+        picks.clone()
+    } else {
+        last_of_segment.clone()
+    };
+    let targets: Vec<[f64; 3]> = if moving {
+        picks.iter().filter_map(|&i| frames[i].target).collect()
+    } else {
+        last_of_segment
+            .iter()
+            .filter_map(|&i| frames[i].target)
+            .collect()
+    };
+    let points = picks
+        .iter()
+        .flat_map(|&i| frames[i].position.iter())
+        .chain(desired_drawn.iter().flat_map(|&i| frames[i].desired.iter()))
+        .chain(targets.iter());
+    let (mut lo, hi) = bounds(points, &spheres, length);
+    lo[0] = lo[0].min(-0.05);
+
+    let (width, height) = (1100u32, 800u32);
+    let root = BitMapBackend::new(path, (width, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let root = root.titled(title, ("sans-serif", 28)).map_err(err)?;
+    let (main, side) = root.split_horizontally(width - 230);
+    let (margin, xlab, ylab) = (20u32, 60u32, 75u32);
+    let (pw, ph) = main.dim_in_pixel();
+    let (plot_w, plot_h) = (
+        (pw - 2 * margin - ylab) as f64,
+        (ph - 2 * margin - xlab) as f64,
+    );
+    let (x0, x1, y0, y1) = equal_box(lo, hi, plot_w, plot_h);
+    let mut chart = ChartBuilder::on(&main)
+        .margin(margin)
+        .x_label_area_size(xlab)
+        .y_label_area_size(ylab)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("x / L0")
+        .y_desc("y / L0")
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .label_style(("sans-serif", 18))
+        .axis_desc_style(("sans-serif", 22))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(err)?;
+    draw_spheres(&mut chart, &spheres, length)?;
+    let (area_w, _) = chart.plotting_area().dim_in_pixel();
+    let per_px = (x1 - x0) / area_w as f64;
+    let n_picks = picks.len().max(2);
+    if moving {
+        // B: every drawn instant's desired shape, thin and light, under the arm.
+        for &i in &desired_drawn {
+            thick_path(
+                &mut chart,
+                &scaled(&frames[i].desired, length),
+                DESIRED_LIGHT,
+                2.5,
+                per_px,
+            )?;
+        }
+    }
+    for (k, &i) in picks.iter().enumerate() {
+        let colour = purple(k as f64 / (n_picks - 1) as f64);
+        thick_path(
+            &mut chart,
+            &scaled(&frames[i].position, length),
+            colour,
+            4.5,
+            per_px,
+        )?;
+    }
+    if !moving {
+        // The desired shape of each segment's last instant, over the arm that converged to it.
+        for &i in &desired_drawn {
+            thick_path(
+                &mut chart,
+                &scaled(&frames[i].desired, length),
+                DESIRED,
+                2.0,
+                per_px,
+            )?;
+        }
+    }
+    for t in &targets {
+        draw_cross(&mut chart, *t, length, 10)?;
+    }
+    draw_base(&mut chart)?;
+
+    // Legend on the right: one entry per drawn instant, then the other marks.
+    let font = ("sans-serif", 19).into_font();
+    let mut y = 60i32;
+    side.draw(&Text::new("arm at", (10, y), font.clone()))
+        .map_err(err)?;
+    y += 30;
+    for (k, &i) in picks.iter().enumerate() {
+        let colour = purple(k as f64 / (n_picks - 1) as f64);
+        side.draw(&PathElement::new(
+            vec![(10, y + 10), (50, y + 10)],
+            colour.stroke_width(5),
+        ))
+        .map_err(err)?;
+        side.draw(&Text::new(
+            format!("t = {:.2} s", frames[i].time),
+            (60, y),
+            font.clone(),
+        ))
+        .map_err(err)?;
+        y += 28;
+    }
+    y += 14;
+    let desired_label = if moving {
+        "desired shapes"
+    } else {
+        "desired shape"
+    };
+    side.draw(&PathElement::new(
+        vec![(10, y + 10), (50, y + 10)],
+        (if moving { DESIRED_LIGHT } else { DESIRED }).stroke_width(4),
+    ))
+    .map_err(err)?;
+    side.draw(&Text::new(desired_label, (60, y), font.clone()))
+        .map_err(err)?;
+    y += 30;
+    if !targets.is_empty() {
+        side.draw(&Cross::new((30, y + 10), 8, TARGET.stroke_width(3)))
+            .map_err(err)?;
+        side.draw(&Text::new("target", (60, y), font.clone()))
+            .map_err(err)?;
+        y += 30;
+    }
+    if !spheres.is_empty() {
+        side.draw(&Circle::new((30, y + 10), 10, OBSTACLE.filled()))
+            .map_err(err)?;
+        let label = if spec.grasp.is_some() {
+            "object"
+        } else {
+            "obstacle"
+        };
+        side.draw(&Text::new(label, (60, y), font.clone()))
+            .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Draw one animation frame into `area`.
+#[allow(clippy::too_many_arguments)]
+fn gif_frame(
+    area: &DrawingArea<BitMapBackend, Shift>,
+    spec: &ExperimentSpec,
+    frame: &FigureFrame,
+    range: (f64, f64, f64, f64),
+    margin: u32,
+    xlab: u32,
+    ylab: u32,
+) -> Result<()> {
+    let length = spec.arm.length;
+    area.fill(&WHITE).map_err(err)?;
+    let (x0, x1, y0, y1) = range;
+    let mut chart = ChartBuilder::on(area)
+        .margin(margin)
+        .x_label_area_size(xlab)
+        .y_label_area_size(ylab)
+        .caption(
+            format!("{}   t = {:.2} s", spec.name, frame.time),
+            ("sans-serif", 20),
+        )
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("x / L0")
+        .y_desc("y / L0")
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.1))
+        .draw()
+        .map_err(err)?;
+    draw_spheres(&mut chart, &spec.spheres(), length)?;
+    let (pw, _) = chart.plotting_area().dim_in_pixel();
+    let per_px = (x1 - x0) / pw as f64;
+    thick_path(
+        &mut chart,
+        &scaled(&frame.position, length),
+        purple(0.8),
+        4.0,
+        per_px,
+    )?;
+    thick_path(
+        &mut chart,
+        &scaled(&frame.desired, length),
+        DESIRED,
+        2.0,
+        per_px,
+    )?;
+    if let Some(t) = frame.target {
+        draw_cross(&mut chart, t, length, 7)?;
+    }
+    draw_base(&mut chart)?;
+    Ok(())
+}
+
+/// `shapes.gif`: every k-th frame (at most ~100 frames, played in real time), arm in purple,
+/// desired shape in green, target, obstacles; fixed axes in units of L0.
+pub fn shapes_gif(path: &Path, spec: &ExperimentSpec, frames: &[FigureFrame]) -> Result<()> {
+    ensure_font();
+    if frames.is_empty() {
+        return Err(anyhow!("no recorded frames"));
+    }
+    let length = spec.arm.length;
+    let stride = frames.len().div_ceil(100).max(1);
+    let shown: Vec<&FigureFrame> = frames
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % stride == 0 || *i == frames.len() - 1)
+        .map(|(_, f)| f)
+        .collect();
+    let points = shown.iter().flat_map(|f| {
+        f.position
+            .iter()
+            .chain(f.desired.iter())
+            .chain(f.target.iter())
+    });
+    let (mut lo, hi) = bounds(points, &spec.spheres(), length);
+    lo[0] = lo[0].min(-0.05);
+    let (w, h) = (560u32, 440u32);
+    let (margin, xlab, ylab) = (10u32, 45u32, 55u32);
+    let range = equal_box(
+        lo,
+        hi,
+        (w - 2 * margin - ylab) as f64,
+        (h - 2 * margin - xlab - 30) as f64,
+    );
+    let frame_dt = if frames.len() >= 2 {
+        frames[1].time - frames[0].time
+    } else {
+        spec.frame_interval
+    };
+    let delay = ((stride as f64 * frame_dt * 100.0).round() as u16).max(2);
+    let file = BufWriter::new(File::create(path)?);
+    let mut gif = GifWriter::new(file, w as u16, h as u16)?;
+    let mut buf = vec![0u8; (3 * w * h) as usize];
+    for (k, f) in shown.iter().enumerate() {
+        {
+            let area = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            gif_frame(&area, spec, f, range, margin, xlab, ylab)?;
+            area.present().map_err(err)?;
+        }
+        // Hold the last frame for a second before the loop restarts.
+        let d = if k + 1 == shown.len() {
+            delay.max(100)
+        } else {
+            delay
+        };
+        gif.frame(&buf, d)?;
+    }
+    gif.finish()?;
+    Ok(())
+}
+
+/// One curve of `distance.png`.
+pub struct DistanceCurve<'a> {
+    /// Legend label.
+    pub label: String,
+    /// Line colour.
+    pub colour: RGBColor,
+    /// (time [s], distance / L0) samples.
+    pub points: &'a [(f64, f64)],
+}
+
+/// Colour of each paper experiment in `distance.png`: A orange (the paper's), B blue, C green,
+/// D purple.
+pub fn experiment_colour(name: &str) -> RGBColor {
+    match name {
+        "two-targets" => RGBColor(245, 130, 20),
+        "moving-target" => RGBColor(31, 100, 200),
+        "obstacles" => RGBColor(40, 160, 60),
+        "grasp" => RGBColor(130, 50, 170),
+        _ => BLACK,
+    }
+}
+
+/// At most about `max` of `points`, evenly strided, the last one always included (wide lines
+/// through thousands of 1 ms samples come out frayed).
+fn thin(points: &[(f64, f64)], max: usize) -> impl Iterator<Item = (f64, f64)> + '_ {
+    let stride = points.len().div_ceil(max.max(1)).max(1);
+    let last = points.len().saturating_sub(1);
+    points
+        .iter()
+        .enumerate()
+        .filter(move |(i, _)| i % stride == 0 || *i == last)
+        .map(|(_, p)| *p)
+}
+
+/// `distance.png` in the style of the paper's Fig. 4: distance / L0 against time for every run,
+/// linear axes, with the target switch of A marked at `switch` [s]; a second, logarithmic panel
+/// below shows the tails (B's tracking lag, the final distances).
+pub fn distance_png(path: &Path, curves: &[DistanceCurve], switch: Option<f64>) -> Result<()> {
+    ensure_font();
+    let t_end = curves
+        .iter()
+        .filter_map(|c| c.points.last().map(|p| p.0))
+        .fold(0.0f64, f64::max)
+        .max(1e-3);
+    let d_max = curves
+        .iter()
+        .flat_map(|c| c.points.iter().map(|p| p.1))
+        .filter(|d| d.is_finite())
+        .fold(0.0f64, f64::max)
+        .max(1e-3);
+    let root = BitMapBackend::new(path, (1100, 900)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let root = root
+        .titled(
+            "distance to target (A-C: tip; D: grasp gap)",
+            ("sans-serif", 26),
+        )
+        .map_err(err)?;
+    let (top, bottom) = root.split_vertically(560);
+    let mut chart = ChartBuilder::on(&top)
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, 0.0..1.08 * d_max)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("time [s]")
+        .y_desc("distance / L0")
+        .x_label_formatter(&|v| format!("{v:.1}"))
+        .y_label_formatter(&|v| format!("{v:.1}"))
+        .label_style(("sans-serif", 18))
+        .axis_desc_style(("sans-serif", 22))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(err)?;
+    if let Some(ts) = switch.filter(|&t| t < t_end) {
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(ts, 0.0), (ts, 1.08 * d_max)],
+                BLACK.mix(0.45).stroke_width(1),
+            )))
+            .map_err(err)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("A: target switch at {ts} s"),
+                // Left of the line, above the curves (A peaks just after the switch).
+                ((ts - 0.22 * t_end).max(0.0), 1.0 * d_max),
+                ("sans-serif", 18).into_font(),
+            )))
+            .map_err(err)?;
+    }
+    for c in curves {
+        let colour = c.colour;
+        chart
+            .draw_series(LineSeries::new(thin(c.points, 800), colour.stroke_width(2)))
+            .map_err(err)?
+            .label(c.label.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 26, y)], colour.stroke_width(4))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 18))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK.mix(0.3))
+        .draw()
+        .map_err(err)?;
+
+    // Logarithmic panel: the same curves, to read the tails.
+    let floor = 1e-5;
+    let mut log = ChartBuilder::on(&bottom)
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, (floor..2.0 * d_max).log_scale())
+        .map_err(err)?;
+    log.configure_mesh()
+        .x_desc("time [s]")
+        .y_desc("distance / L0 (log)")
+        .x_label_formatter(&|v| format!("{v:.1}"))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 20))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(err)?;
+    log.draw_series(std::iter::once(PathElement::new(
+        vec![(0.0, 0.02), (t_end, 0.02)],
+        BLACK.mix(0.35).stroke_width(1),
+    )))
+    .map_err(err)?;
+    log.draw_series(std::iter::once(Text::new(
+        "settling band 0.02",
+        (0.01 * t_end, 0.024),
+        ("sans-serif", 15).into_font(),
+    )))
+    .map_err(err)?;
+    for c in curves {
+        log.draw_series(LineSeries::new(
+            thin(c.points, 800)
+                .filter(|p| p.1.is_finite())
+                .map(|(t, d)| (t, d.max(floor))),
+            c.colour.stroke_width(2),
+        ))
+        .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
