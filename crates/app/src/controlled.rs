@@ -48,6 +48,7 @@ pub fn experiment_spec(scn: &Scenario) -> Option<ExperimentSpec> {
             update_every: sv.update_every,
             iterations_per_update: sv.iterations_per_update,
             trust_form_time: sv.trust_form_time,
+            presolve: sv.presolve,
         },
     };
     let (via_points, via_until) = match &cfg.via_path {
@@ -154,15 +155,7 @@ impl TrajectorySink {
         let (model, state) = spec.arm.build()?;
         let n = model.n_elements;
         let planned = planned_frames(spec);
-        let mut spools = Vec::new();
-        for (name, shape) in streamed(n) {
-            spools.push(SpooledArray::create(
-                dir.join(format!(".{name}.spool")),
-                name,
-                &shape,
-                planned,
-            )?);
-        }
+        let spools = SpooledArray::create_members(dir, streamed(n), planned)?;
         Ok(Self {
             model,
             state,

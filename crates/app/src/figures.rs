@@ -2,30 +2,14 @@
 //! equal axes, obstacles outlined) and `energy.png` (energies, work and dissipation over time).
 //! Text uses DejaVu Sans compiled into the binary, so no system font is ever looked up.
 
+use crate::plot::{
+    draw_disc, ensure_font, equal_chart, err, legend, mesh, mix_rgb, png_canvas, tick,
+};
 use crate::recorder::Recorder;
 use crate::scenario::ObstacleConfig;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
-use plotters::style::{register_font, FontStyle};
 use std::path::Path;
-use std::sync::Once;
-
-static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
-
-/// Register the embedded DejaVu Sans as "sans-serif" (once).
-pub(crate) fn ensure_font() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        // The font is a known-good TTF shipped in the crate; failure would be a build mistake.
-        if register_font("sans-serif", FontStyle::Normal, FONT).is_err() {
-            panic!("assets/DejaVuSans.ttf is not a valid font");
-        }
-    });
-}
-
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("{e:?}")
-}
 
 /// Viridis colour map, `u` in [0, 1] (perceptually uniform, readable in grey).
 pub fn viridis(u: f64) -> RGBColor {
@@ -39,26 +23,10 @@ pub fn viridis(u: f64) -> RGBColor {
     ];
     let x = u.clamp(0.0, 1.0) * (STOPS.len() - 1) as f64;
     let i = (x.floor() as usize).min(STOPS.len() - 2);
-    let f = x - i as f64;
-    let (a, b) = (STOPS[i], STOPS[i + 1]);
-    let mix = |p: f64, q: f64| (p + f * (q - p)).round() as u8;
-    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+    mix_rgb(STOPS[i], STOPS[i + 1], x - i as f64)
 }
 
 const AXIS: [&str; 3] = ["x", "y", "z"];
-
-/// A tick label with three decimals and no "-0.000".
-fn tick(v: f64) -> String {
-    let s = format!("{v:.3}");
-    if s.trim_start_matches('-')
-        .chars()
-        .all(|c| c == '0' || c == '.')
-    {
-        s.trim_start_matches('-').to_string()
-    } else {
-        s
-    }
-}
 
 /// Centrelines of the recorded frames (up to ~40, evenly spread in time, the last always
 /// included), projected on the two lab axes with the largest extent, equal scales, colour by
@@ -111,67 +79,38 @@ pub fn shapes_png(
         }
     }
 
-    let (width, height) = (1000u32, 800u32);
-    let root = BitMapBackend::new(path, (width, height)).into_drawing_area();
-    root.fill(&WHITE).map_err(err)?;
-    let root = root
-        .titled(&format!("{title}: centrelines"), ("sans-serif", 26))
-        .map_err(err)?;
+    let width = 1000u32;
+    let root = png_canvas(path, (width, 800), &format!("{title}: centrelines"), 26)?;
     let (main, bar) = root.split_horizontally(width - 130);
     let (margin, xlab, ylab) = (20u32, 55u32, 85u32);
-    let (pw, ph) = main.dim_in_pixel();
-    let (plot_w, plot_h) = (
-        (pw - 2 * margin - ylab) as f64,
-        (ph - 2 * margin - xlab) as f64,
-    );
-    // Equal scales: widen the shorter range about its centre until metres per pixel agree.
-    let pad = 0.05 * (hi[ax] - lo[ax]).max(hi[ay] - lo[ay]).max(1e-6);
-    let (mut x0, mut x1) = (lo[ax] - pad, hi[ax] + pad);
-    let (mut y0, mut y1) = (lo[ay] - pad, hi[ay] + pad);
-    let scale = ((x1 - x0) / plot_w).max((y1 - y0) / plot_h);
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    (x0, x1) = (cx - 0.5 * scale * plot_w, cx + 0.5 * scale * plot_w);
-    (y0, y1) = (cy - 0.5 * scale * plot_h, cy + 0.5 * scale * plot_h);
-
-    let mut chart = ChartBuilder::on(&main)
-        .margin(margin)
-        .x_label_area_size(xlab)
-        .y_label_area_size(ylab)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc(format!("{} [m]", AXIS[ax]))
-        .y_desc(format!("{} [m]", AXIS[ay]))
-        .x_label_formatter(&|v| tick(*v))
-        .y_label_formatter(&|v| tick(*v))
-        .label_style(("sans-serif", 16))
-        .axis_desc_style(("sans-serif", 20))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.08))
-        .draw()
-        .map_err(err)?;
+    let mut chart = equal_chart(
+        &main,
+        [lo[ax], lo[ay]],
+        [hi[ax], hi[ay]],
+        margin,
+        xlab,
+        ylab,
+    )?;
+    mesh(
+        &mut chart,
+        &format!("{} [m]", AXIS[ax]),
+        &format!("{} [m]", AXIS[ay]),
+        16,
+        20,
+    )
+    .x_label_formatter(&|v| tick(*v, 3))
+    .y_label_formatter(&|v| tick(*v, 3))
+    .draw()
+    .map_err(err)?;
 
     for o in obstacles {
-        let r = 0.5 * o.diameter;
-        let ring: Vec<(f64, f64)> = (0..=120)
-            .map(|k| {
-                let a = k as f64 / 120.0 * std::f64::consts::TAU;
-                (o.center[ax] + r * a.cos(), o.center[ay] + r * a.sin())
-            })
-            .collect();
-        chart
-            .draw_series(std::iter::once(Polygon::new(
-                ring.clone(),
-                RGBColor(200, 200, 200).mix(0.5).filled(),
-            )))
-            .map_err(err)?;
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                ring,
-                RGBColor(120, 120, 120).stroke_width(2),
-            )))
-            .map_err(err)?;
+        draw_disc(
+            &mut chart,
+            (o.center[ax], o.center[ay]),
+            0.5 * o.diameter,
+            RGBColor(200, 200, 200).mix(0.5).filled(),
+            RGBColor(120, 120, 120).stroke_width(2),
+        )?;
     }
     let tip: Vec<(f64, f64)> = rec.tip.iter().map(|p| (p[ax], p[ay])).collect();
     chart
@@ -194,14 +133,7 @@ pub fn shapes_png(
         .map_err(err)?
         .label("clamped base")
         .legend(|(x, y)| Circle::new((x, y), 4, BLACK.filled()));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font(("sans-serif", 16))
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK.mix(0.3))
-        .draw()
-        .map_err(err)?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight, 16, 0.8)?;
 
     // Colour bar: time of each centreline.
     let mut cb = ChartBuilder::on(&bar)
@@ -217,7 +149,7 @@ pub fn shapes_png(
         .disable_y_mesh()
         .disable_x_axis()
         .y_desc("t [s]")
-        .y_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v, 3))
         .label_style(("sans-serif", 16))
         .axis_desc_style(("sans-serif", 20))
         .draw()
@@ -293,21 +225,14 @@ pub fn energy_png(path: &Path, rec: &Recorder, title: &str) -> Result<()> {
         },
     );
 
-    let root = BitMapBackend::new(path, (1000, 650)).into_drawing_area();
-    root.fill(&WHITE).map_err(err)?;
-    let root = root
-        .titled(&format!("{title}: energy"), ("sans-serif", 26))
-        .map_err(err)?;
+    let root = png_canvas(path, (1000, 650), &format!("{title}: energy"), 26)?;
     let mut chart = ChartBuilder::on(&root)
         .margin(20)
         .x_label_area_size(55)
         .y_label_area_size(95)
         .build_cartesian_2d(ta..tb, (lo - pad)..(hi + pad))
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .y_desc("energy [J]")
+    mesh(&mut chart, "t [s]", "energy [J]", 16, 20)
         .y_label_formatter(&|v| {
             if *v == 0.0 {
                 "0".into()
@@ -315,10 +240,6 @@ pub fn energy_png(path: &Path, rec: &Recorder, title: &str) -> Result<()> {
                 format!("{v:.2e}")
             }
         })
-        .label_style(("sans-serif", 16))
-        .axis_desc_style(("sans-serif", 20))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.08))
         .draw()
         .map_err(err)?;
     for (name, colour, v) in curves {
@@ -331,14 +252,7 @@ pub fn energy_png(path: &Path, rec: &Recorder, title: &str) -> Result<()> {
                 PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(3))
             });
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .label_font(("sans-serif", 16))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .draw()
-        .map_err(err)?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft, 16, 0.85)?;
     root.present().map_err(err)?;
     Ok(())
 }

@@ -11,6 +11,7 @@ pub mod gif;
 pub mod output;
 pub mod paper;
 pub mod paper_figures;
+mod plot;
 pub mod recorder;
 pub mod runner;
 pub mod scenario;

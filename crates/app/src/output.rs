@@ -221,6 +221,21 @@ impl SpooledArray {
         })
     }
 
+    /// One spool per member `(name, frame_shape)`, in the order given, each at
+    /// `dir/.{name}.spool` for `planned` frames.
+    pub fn create_members<'n>(
+        dir: &Path,
+        members: impl IntoIterator<Item = (&'n str, Vec<usize>)>,
+        planned: usize,
+    ) -> Result<Vec<Self>> {
+        members
+            .into_iter()
+            .map(|(name, shape)| {
+                Self::create(dir.join(format!(".{name}.spool")), name, &shape, planned)
+            })
+            .collect()
+    }
+
     /// Append one frame (`frame_len` values). Errors if more than `planned` frames are pushed.
     pub fn push(&mut self, values: &[f64]) -> Result<()> {
         if values.len() != self.frame_len {

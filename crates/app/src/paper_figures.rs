@@ -3,8 +3,11 @@
 //! red crosses, obstacles as grey discs, axes in units of L0), the animated `shapes.gif`, and the
 //! run-wide `distance.png`. Drawn from recorded frames and series only.
 
-use crate::figures::ensure_font;
 use crate::gif::GifWriter;
+use crate::plot::{
+    draw_disc, ensure_font, equal_box, equal_chart, err, legend, mesh, mix_rgb, png_canvas, tick,
+    Chart,
+};
 use anyhow::{anyhow, Result};
 use octoarm_control::{ExperimentSpec, SphereSpec};
 use plotters::coord::Shift;
@@ -26,10 +29,6 @@ pub struct FigureFrame {
     pub target: Option<[f64; 3]>,
 }
 
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("{e:?}")
-}
-
 /// Green of the desired shape.
 const DESIRED: RGBColor = RGBColor(34, 160, 60);
 /// Light green of B's many desired shapes.
@@ -41,10 +40,11 @@ const OBSTACLE: RGBColor = RGBColor(170, 170, 170);
 
 /// Purple shade for `u` in [0, 1]: light (early) to dark (late).
 pub fn purple(u: f64) -> RGBColor {
-    let u = u.clamp(0.0, 1.0);
-    let (a, b) = ((205.0, 180.0, 235.0), (60.0, 10.0, 110.0));
-    let mix = |p: f64, q: f64| (p + u * (q - p)).round() as u8;
-    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+    mix_rgb(
+        (205.0, 180.0, 235.0),
+        (60.0, 10.0, 110.0),
+        u.clamp(0.0, 1.0),
+    )
 }
 
 /// Start times of the segments of constant task target (one segment for a grasp or a single
@@ -88,21 +88,6 @@ pub fn picked_frames(spec: &ExperimentSpec, frames: &[FigureFrame]) -> Vec<Vec<u
     out
 }
 
-/// Axis limits with equal scales: the box [lo, hi] widened about its centre to the aspect of a
-/// plot of `w` × `h` pixels, with a 5 % margin.
-fn equal_box(lo: [f64; 2], hi: [f64; 2], w: f64, h: f64) -> (f64, f64, f64, f64) {
-    let pad = 0.05 * (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-6);
-    let (x0, x1, y0, y1) = (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad);
-    let scale = ((x1 - x0) / w).max((y1 - y0) / h);
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    (
-        cx - 0.5 * scale * w,
-        cx + 0.5 * scale * w,
-        cy - 0.5 * scale * h,
-        cy + 0.5 * scale * h,
-    )
-}
-
 /// Bounding box (in units of L0) of the given points and spheres.
 fn bounds<'a>(
     points: impl Iterator<Item = &'a [f64; 3]>,
@@ -132,34 +117,6 @@ fn bounds<'a>(
 fn scaled(x: &[[f64; 3]], length: f64) -> Vec<(f64, f64)> {
     x.iter().map(|p| (p[0] / length, p[1] / length)).collect()
 }
-
-fn disc(s: &SphereSpec, length: f64) -> Vec<(f64, f64)> {
-    let r = 0.5 * s.diameter / length;
-    (0..=120)
-        .map(|k| {
-            let a = k as f64 / 120.0 * std::f64::consts::TAU;
-            (
-                s.center[0] / length + r * a.cos(),
-                s.center[1] / length + r * a.sin(),
-            )
-        })
-        .collect()
-}
-
-fn tick(v: f64) -> String {
-    let s = format!("{v:.1}");
-    if s == "-0.0" {
-        "0.0".into()
-    } else {
-        s
-    }
-}
-
-type Chart<'a, 'b> = ChartContext<
-    'a,
-    BitMapBackend<'b>,
-    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
->;
 
 /// A polyline `width` pixels wide drawn as filled quads with round joints: plotters' own wide
 /// lines leave jagged edges. `per_px` is data units per pixel (equal on both axes).
@@ -200,19 +157,13 @@ fn thick_path(
 
 fn draw_spheres(chart: &mut Chart, spheres: &[SphereSpec], length: f64) -> Result<()> {
     for s in spheres {
-        let ring = disc(s, length);
-        chart
-            .draw_series(std::iter::once(Polygon::new(
-                ring.clone(),
-                OBSTACLE.filled(),
-            )))
-            .map_err(err)?;
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                ring,
-                RGBColor(120, 120, 120).stroke_width(1),
-            )))
-            .map_err(err)?;
+        draw_disc(
+            chart,
+            (s.center[0] / length, s.center[1] / length),
+            0.5 * s.diameter / length,
+            OBSTACLE.filled(),
+            RGBColor(120, 120, 120).stroke_width(1),
+        )?;
     }
     Ok(())
 }
@@ -276,39 +227,19 @@ pub fn shapes_png(
     let (mut lo, hi) = bounds(points, &spheres, length);
     lo[0] = lo[0].min(-0.05);
 
-    let (width, height) = (1100u32, 800u32);
-    let root = BitMapBackend::new(path, (width, height)).into_drawing_area();
-    root.fill(&WHITE).map_err(err)?;
-    let root = root.titled(title, ("sans-serif", 28)).map_err(err)?;
+    let width = 1100u32;
+    let root = png_canvas(path, (width, 800), title, 28)?;
     let (main, side) = root.split_horizontally(width - 230);
-    let (margin, xlab, ylab) = (20u32, 60u32, 75u32);
-    let (pw, ph) = main.dim_in_pixel();
-    let (plot_w, plot_h) = (
-        (pw - 2 * margin - ylab) as f64,
-        (ph - 2 * margin - xlab) as f64,
-    );
-    let (x0, x1, y0, y1) = equal_box(lo, hi, plot_w, plot_h);
-    let mut chart = ChartBuilder::on(&main)
-        .margin(margin)
-        .x_label_area_size(xlab)
-        .y_label_area_size(ylab)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("x / L0")
-        .y_desc("y / L0")
-        .x_label_formatter(&|v| tick(*v))
-        .y_label_formatter(&|v| tick(*v))
-        .label_style(("sans-serif", 18))
-        .axis_desc_style(("sans-serif", 22))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.08))
+    let mut chart = equal_chart(&main, lo, hi, 20, 60, 75)?;
+    mesh(&mut chart, "x / L0", "y / L0", 18, 22)
+        .x_label_formatter(&|v| tick(*v, 1))
+        .y_label_formatter(&|v| tick(*v, 1))
         .draw()
         .map_err(err)?;
     draw_spheres(&mut chart, &spheres, length)?;
     let (area_w, _) = chart.plotting_area().dim_in_pixel();
-    let per_px = (x1 - x0) / area_w as f64;
+    let x_range = chart.x_range();
+    let per_px = (x_range.end - x_range.start) / area_w as f64;
     let n_picks = picks.len().max(2);
     if moving {
         // B: every drawn instant's desired shape, thin and light, under the arm.
@@ -430,15 +361,10 @@ fn gif_frame(
         )
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("x / L0")
-        .y_desc("y / L0")
-        .x_label_formatter(&|v| tick(*v))
-        .y_label_formatter(&|v| tick(*v))
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .light_line_style(WHITE.mix(0.0))
+    // A slightly darker grid than the still figure's: the frames are small.
+    mesh(&mut chart, "x / L0", "y / L0", 14, 16)
+        .x_label_formatter(&|v| tick(*v, 1))
+        .y_label_formatter(&|v| tick(*v, 1))
         .bold_line_style(BLACK.mix(0.1))
         .draw()
         .map_err(err)?;
@@ -574,14 +500,12 @@ pub fn distance_png(path: &Path, curves: &[DistanceCurve], switch: Option<f64>) 
         .filter(|d| d.is_finite())
         .fold(0.0f64, f64::max)
         .max(1e-3);
-    let root = BitMapBackend::new(path, (1100, 900)).into_drawing_area();
-    root.fill(&WHITE).map_err(err)?;
-    let root = root
-        .titled(
-            "distance to target (A-C: tip; D: grasp gap)",
-            ("sans-serif", 26),
-        )
-        .map_err(err)?;
+    let root = png_canvas(
+        path,
+        (1100, 900),
+        "distance to target (A-C: tip; D: grasp gap)",
+        26,
+    )?;
     let (top, bottom) = root.split_vertically(560);
     let mut chart = ChartBuilder::on(&top)
         .margin(20)
@@ -589,16 +513,9 @@ pub fn distance_png(path: &Path, curves: &[DistanceCurve], switch: Option<f64>) 
         .y_label_area_size(80)
         .build_cartesian_2d(0.0..t_end, 0.0..1.08 * d_max)
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("time [s]")
-        .y_desc("distance / L0")
+    mesh(&mut chart, "time [s]", "distance / L0", 18, 22)
         .x_label_formatter(&|v| format!("{v:.1}"))
         .y_label_formatter(&|v| format!("{v:.1}"))
-        .label_style(("sans-serif", 18))
-        .axis_desc_style(("sans-serif", 22))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.08))
         .draw()
         .map_err(err)?;
     if let Some(ts) = switch.filter(|&t| t < t_end) {
@@ -627,14 +544,7 @@ pub fn distance_png(path: &Path, curves: &[DistanceCurve], switch: Option<f64>) 
                 PathElement::new(vec![(x, y), (x + 26, y)], colour.stroke_width(4))
             });
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font(("sans-serif", 18))
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK.mix(0.3))
-        .draw()
-        .map_err(err)?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight, 18, 0.9)?;
 
     // Logarithmic panel: the same curves, to read the tails.
     let floor = 1e-5;
@@ -644,15 +554,9 @@ pub fn distance_png(path: &Path, curves: &[DistanceCurve], switch: Option<f64>) 
         .y_label_area_size(80)
         .build_cartesian_2d(0.0..t_end, (floor..2.0 * d_max).log_scale())
         .map_err(err)?;
-    log.configure_mesh()
-        .x_desc("time [s]")
-        .y_desc("distance / L0 (log)")
+    mesh(&mut log, "time [s]", "distance / L0 (log)", 16, 20)
         .x_label_formatter(&|v| format!("{v:.1}"))
         .y_label_formatter(&|v| format!("{v:.0e}"))
-        .label_style(("sans-serif", 16))
-        .axis_desc_style(("sans-serif", 20))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.08))
         .draw()
         .map_err(err)?;
     log.draw_series(std::iter::once(PathElement::new(

@@ -90,15 +90,8 @@ impl Recorder {
     /// A recorder for `planned` frames of a rod like `model`, spooling into `dir`.
     pub fn new(model: &RodModel, planned: usize, dir: &Path) -> Result<Self> {
         let n = model.n_elements;
-        let mut spools = Vec::new();
-        for (name, shape, _, _) in streamed_arrays(n) {
-            spools.push(SpooledArray::create(
-                dir.join(format!(".{name}.spool")),
-                name,
-                &shape,
-                planned,
-            )?);
-        }
+        let members = streamed_arrays(n).map(|(name, shape, _, _)| (name, shape));
+        let spools = SpooledArray::create_members(dir, members, planned)?;
         let (tx, rx) = mpsc::sync_channel::<Vec<f64>>(QUEUE);
         let (back, recycle) = mpsc::channel::<Vec<f64>>();
         let model = model.clone();

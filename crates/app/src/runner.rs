@@ -167,8 +167,10 @@ pub fn advisories(scn: &Scenario, sim: &Simulation) -> Vec<String> {
             0.2 * limit
         ));
     }
+    // Whether `count` steps of dt miss `span` [s] by more than rounding.
+    let off_grid = |count: f64, span: f64| (count * dt - span).abs() > 1e-9 * span;
     let steps = cfg.n_steps();
-    if ((steps as f64) * dt - cfg.time.duration).abs() > 1e-9 * cfg.time.duration {
+    if off_grid(steps as f64, cfg.time.duration) {
         out.push(format!(
             "time.duration = {} s is not a multiple of dt = {dt:e} s: running {steps} steps, to t = {:.9} s",
             cfg.time.duration,
@@ -176,7 +178,7 @@ pub fn advisories(scn: &Scenario, sim: &Simulation) -> Vec<String> {
         ));
     }
     let every = cfg.save_every();
-    if ((every as f64) * dt - cfg.time.save_interval).abs() > 1e-9 * cfg.time.save_interval {
+    if off_grid(every as f64, cfg.time.save_interval) {
         out.push(format!(
             "time.save_interval = {} s is not a multiple of dt = {dt:e} s: recording every {every} steps ({:.9} s)",
             cfg.time.save_interval,

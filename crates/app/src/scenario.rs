@@ -155,6 +155,10 @@ pub struct SolverConfig {
     /// long to form [s], > 0; default none (no trust region).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trust_form_time: Option<f64>,
+    /// Online: solve the design for the first target offline before t = 0 and start the online
+    /// updates from it (applied at once at t = 0); default false (start from the straight arm).
+    #[serde(default)]
+    pub presolve: bool,
     /// Offline grasp: stages of the μ_grasp continuation (scales 1e-3 … 1), ≥ 1; default 4.
     #[serde(default = "default_grasp_stages")]
     pub grasp_stages: usize,

@@ -1,7 +1,7 @@
 //! Explore the paper's experiments: `cargo run --release -p octoarm-control --example
 //! paper_explore -- <a|b|c|d> [key=value ...]` prints d(t) every 0.1 s, the penetration and the
-//! summary. Keys (C's remedies): trust=<form time s>, iters=<n>, every=<steps>, beta=<contact>,
-//! via=<x,y[;x,y...]>@<until s>, offline=1, ramp=<s>, duration=<s>.
+//! summary. Keys (C's remedies): trust=<form time s>, notrust=1, presolve=1, iters=<n>,
+//! every=<steps>, beta=<contact>, via=<x,y[;x,y...]>@<until s>, offline=1, ramp=<s>, duration=<s>.
 use octoarm_control::{run_experiment, ExperimentSpec, NoFrames, SolverMode, TargetPhase};
 
 fn main() {
@@ -65,15 +65,18 @@ fn main() {
     for kv in &args[1..] {
         let (k, v) = kv.split_once('=').expect("key=value");
         match k {
-            "trust" | "iters" | "every" => {
+            "trust" | "iters" | "every" | "notrust" | "presolve" => {
                 if let SolverMode::Online {
                     update_every,
                     iterations_per_update,
                     trust_form_time,
+                    presolve,
                 } = &mut spec.mode
                 {
                     match k {
                         "trust" => *trust_form_time = Some(v.parse().unwrap()),
+                        "notrust" => *trust_form_time = None,
+                        "presolve" => *presolve = v == "1",
                         "iters" => *iterations_per_update = v.parse().unwrap(),
                         _ => *update_every = v.parse().unwrap(),
                     }
@@ -131,6 +134,17 @@ fn main() {
         );
     }
     let sm = &out.summary;
+    let late_err = sm
+        .update_tip_errors
+        .iter()
+        .filter(|e| e.0 >= 0.5)
+        .map(|e| e.1 / out.length)
+        .fold(0.0, f64::max);
+    let max_d = out.series.iter().map(|s| s.distance).fold(0.0, f64::max);
+    println!(
+        "d(0) = {:.4}, max d = {max_d:.4}, largest online design tip error after 0.5 s = {late_err:.4} L0",
+        out.series[0].distance
+    );
     println!(
         "final d = {:.4}, reached = {}, max penetration = {:.3} mm, segments = {:?}, sweeps = {}, failed updates = {}, design tip errors = {:?}, design pen = {:?}, wall = {:.1} s",
         sm.final_distance,

@@ -6,7 +6,7 @@
 use crate::error::StaticsError;
 use crate::strains::{StrainField, StrainSpace};
 use crate::task::{Task, TipTerm};
-use octoarm_physics::math::{cross, dot, mat_t_vec, mat_vec, norm, sub};
+use octoarm_physics::math::{cross, dot, mat_mul, mat_t_vec, mat_vec, norm, rodrigues, sub};
 use octoarm_physics::{Boundary, Mat3, RodModel, RodState, Vec3};
 use std::f64::consts::PI;
 
@@ -27,6 +27,8 @@ pub struct CostTerms {
 
 /// exp(−[a]×) and the coefficients c = (1 − cos θ)/θ², d = (θ − sin θ)/θ³ of a = D̂κ (θ = |a|),
 /// which the gradient reuses for J_r(−a) = I + c[a]× + d[a]×². Series below θ² = 1e-2.
+/// The series divide (physics' `exp_neg_skew` multiplies by rounded reciprocals): the solver's
+/// iteration counts and the paper runs are sensitive to the last bits, so they are kept.
 #[inline]
 fn rotation(a: Vec3) -> (Mat3, f64, f64) {
     let t2 = dot(a, a);
@@ -41,36 +43,7 @@ fn rotation(a: Vec3) -> (Mat3, f64, f64) {
         let s = t.sin() / t;
         (s, (1.0 - t.cos()) / t2, (1.0 - s) / t2)
     };
-    let (a0, a1, a2) = (a[0], a[1], a[2]);
-    let r = [
-        [
-            1.0 - c * (a1 * a1 + a2 * a2),
-            s * a2 + c * a0 * a1,
-            -s * a1 + c * a0 * a2,
-        ],
-        [
-            -s * a2 + c * a0 * a1,
-            1.0 - c * (a0 * a0 + a2 * a2),
-            s * a0 + c * a1 * a2,
-        ],
-        [
-            s * a1 + c * a0 * a2,
-            -s * a0 + c * a1 * a2,
-            1.0 - c * (a0 * a0 + a1 * a1),
-        ],
-    ];
-    (r, c, d)
-}
-
-#[inline]
-fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
-    let mut m = [[0.0; 3]; 3];
-    for r in 0..3 {
-        for c in 0..3 {
-            m[r][c] = a[r][0] * b[0][c] + a[r][1] * b[1][c] + a[r][2] * b[2][c];
-        }
-    }
-    m
+    (rodrigues(a, s, c), c, d)
 }
 
 /// The statics of one arm: constants taken from the rod model (rest lengths, Voronoi lengths,

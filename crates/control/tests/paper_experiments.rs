@@ -111,17 +111,41 @@ fn experiment_b_moving_target() {
     assert!(late <= 0.04);
 }
 
-/// Spec §5.3 also asks that d never exceeds d(0). NOT MET: while the capped online design forms,
-/// the tip first drifts up-and-right and d rises from 0.6021 to ≈ 0.6045 (+0.4 %) before 0.5 s.
-/// Kept as an ignored test so the shortfall is visible; run with `--ignored`.
+/// Spec §5.3 also asks that d never exceeds d(0). This cannot hold for any controller: the arm
+/// starts at rest (tip velocity 0) while the target recedes along the tip-to-target direction, so
+/// d'(0+) = (v* · u)/L0 = +0.033 L0/s > 0 and d rises above d(0) immediately; a tip that has to
+/// gain speed from rest can only catch up later. Measured with the pre-solved design: d rises
+/// from 0.6021 to 0.6063 (+0.7 %) at 52 ms, of which the receding target accounts for +0.0017 and
+/// the first stretch/shear and base-first bending of the arm for the rest
+/// (docs/paper-experiments.md, "Experiment B"). Kept as an ignored test so the shortfall is
+/// visible; run with `--ignored`.
 #[test]
-#[ignore = "known shortfall of experiment B: d rises ≈0.4 % above d(0) in the first 0.5 s"]
+#[ignore = "infeasible as stated (arm at rest, receding target: d'(0+) > 0); measured max d 0.6063 vs d(0) 0.6021"]
 fn experiment_b_distance_never_exceeds_start() {
     let out = run(ExperimentSpec::paper_b());
     let d0 = out.series[0].distance;
     let max = out.series.iter().map(|s| s.distance).fold(0.0, f64::max);
     println!("d(0) = {d0:.4}, max d = {max:.4}");
     assert!(max <= d0 + 1e-12);
+}
+
+/// Spec §5.3: the desired shape's tip error at each update after 0.5 s ≤ 0.005 L0. The online
+/// sweeps start from an offline design of the initial target (pre-solve) and then track the
+/// moving target with 10 warm-started L-BFGS iterations per 1 ms update. A design that fell behind
+/// the target (e.g. a trust region freezing small strains: 0.29 L0 at 0.5 s) fails this.
+#[test]
+fn experiment_b_design_tip_error_after_half_second() {
+    let out = run(ExperimentSpec::paper_b());
+    assert_eq!(out.summary.update_tip_errors.len(), 4000);
+    let worst = out
+        .summary
+        .update_tip_errors
+        .iter()
+        .filter(|e| e.0 >= 0.5)
+        .map(|e| e.1 / L0)
+        .fold(0.0, f64::max);
+    println!("largest design tip error after 0.5 s = {worst:.4} L0");
+    assert!(worst <= 0.005);
 }
 
 #[test]

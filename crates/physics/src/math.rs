@@ -135,9 +135,10 @@ pub fn exp_neg_skew_series(a: Vec3) -> Mat3 {
     rodrigues(a, s, c)
 }
 
-/// I − s[a]× + c[a]×² with s = sin θ/θ, c = (1 − cos θ)/θ².
+/// I − s[a]× + c[a]×² with s = sin θ/θ, c = (1 − cos θ)/θ² (θ = |a|): exp(−[a]×) from
+/// coefficients the caller already has (the control crate's statics also needs c).
 #[inline(always)]
-fn rodrigues(a: Vec3, s: f64, c: f64) -> Mat3 {
+pub fn rodrigues(a: Vec3, s: f64, c: f64) -> Mat3 {
     let (a0, a1, a2) = (a[0], a[1], a[2]);
     [
         [

@@ -17,26 +17,17 @@
 //! the default model's 2e-5; a work or dissipation accumulator that uses the wrong velocities or
 //! forgets a term breaks the balance.
 
+mod common;
+
+use common::set_case_d_velocities;
 use octoarm_physics::{
     energies, Damping, Load, RodModel, RodState, Settings, Simulation, StraightRod,
 };
 
-/// The spec's initial condition (§13 d): straight arm, v_i = A (ŝ_i/L0)² (0, 1, 0.4),
-/// ω_j = (0, 0, 2 A s̄_j / L0²) (material frame), node 0 and element 0 at rest.
+/// The spec's initial condition (§13 d) on the paper's straight arm.
 fn initial_state(a: f64) -> (RodModel, RodState) {
     let (model, mut state) = StraightRod::paper_arm().build().unwrap();
-    let l0 = model.length();
-    for i in 1..=model.n_elements {
-        let q = a * (model.node_arc_length[i] / l0).powi(2);
-        state.velocity[i] = [0.0, q, 0.4 * q];
-    }
-    for j in 1..model.n_elements {
-        state.omega[j] = [
-            0.0,
-            0.0,
-            2.0 * a * model.element_midpoint_arc_length(j) / (l0 * l0),
-        ];
-    }
+    set_case_d_velocities(&model, &mut state, a);
     (model, state)
 }
 

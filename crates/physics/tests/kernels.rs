@@ -16,6 +16,9 @@
 //! of a neighbour, or velocities of the wrong nodes are off by O(1); (i6) a wrong mass, inertia or
 //! ω component changes H(0) in the second digit.
 
+mod common;
+
+use common::set_case_d_velocities;
 use octoarm_physics::math::dot;
 use octoarm_physics::{
     energies, strains, Boundary, InternalLoads, Material, RodModel, RodState, StraightRod, Vec3,
@@ -248,18 +251,7 @@ fn dilatation_rate_is_exact_time_derivative() {
 #[test]
 fn initial_energy_of_case_d() {
     let (model, mut state) = StraightRod::paper_arm().build().unwrap();
-    let (a, l0) = (0.05, model.length());
-    for i in 1..=model.n_elements {
-        let q = a * (model.node_arc_length[i] / l0).powi(2);
-        state.velocity[i] = [0.0, q, 0.4 * q];
-    }
-    for j in 1..model.n_elements {
-        state.omega[j] = [
-            0.0,
-            0.0,
-            2.0 * a * model.element_midpoint_arc_length(j) / (l0 * l0),
-        ];
-    }
+    set_case_d_velocities(&model, &mut state, 0.05);
     let h0 = energies(&model, &state, false).total();
     println!("H(0) = {h0:.7e} J (reference 6.748866e-7 J)");
     assert!((h0 / 6.748866e-7 - 1.0).abs() < 5e-6, "H(0) = {h0:e}");

@@ -24,6 +24,9 @@
 //! acceptable result, so even a 1e-300 leak fails. In the rotated scene a real coupling grows far
 //! above round-off (the out-of-plane modes are driven, not just seeded at 1e-16).
 
+mod common;
+
+use common::{rot, rotation};
 use octoarm_physics::{
     max_penetration, AnalyticalDamper, Boundary, ContactParams, Damping, Load, Mat3, Material,
     Settings, Simulation, Sphere, StraightRod, Vec3,
@@ -106,27 +109,47 @@ fn max_defect(frames: &[Mat3]) -> f64 {
     worst
 }
 
-/// exp([a]×) by Rodrigues with libm (independent of the crate's kernel).
-fn rotation(a: Vec3) -> Mat3 {
-    let t = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    let k = [[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]];
-    let (s, c) = (t.sin() / t, (1.0 - t.cos()) / (t * t));
-    let mut r = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            let k2: f64 = (0..3).map(|m| k[i][m] * k[m][j]).sum();
-            r[i][j] = if i == j { 1.0 } else { 0.0 } + s * k[i][j] + c * k2;
-        }
-    }
-    r
+/// What a planar run saw: the frame defect before it, after the first Björck check (step 100)
+/// and at its end, and the number of steps with an obstacle penetrated.
+struct PlanarRun {
+    defect0: f64,
+    defect_first_check: f64,
+    defect: f64,
+    contact_steps: usize,
 }
 
-fn rot(r: &Mat3, a: Vec3) -> Vec3 {
-    [
-        r[0][0] * a[0] + r[0][1] * a[1] + r[0][2] * a[2],
-        r[1][0] * a[0] + r[1][1] * a[1] + r[1][2] * a[2],
-        r[2][0] * a[0] + r[2][1] * a[1] + r[2][2] * a[2],
-    ]
+/// Take `steps` steps with `step`, asserting planarity after each, and report what was seen.
+fn run_planar(
+    sim: &mut Simulation,
+    label: &str,
+    steps: usize,
+    mut step: impl FnMut(&mut Simulation),
+) -> PlanarRun {
+    let defect0 = max_defect(&sim.state.director);
+    let mut defect_first_check = f64::NAN;
+    let mut contact_steps = 0;
+    for _ in 0..steps {
+        step(sim);
+        assert_planar(sim, label);
+        if sim.steps() == 100 {
+            defect_first_check = max_defect(&sim.state.director);
+        }
+        if max_penetration(&sim.model, &sim.state, &sim.obstacles).0 > 0.0 {
+            contact_steps += 1;
+        }
+    }
+    let defect = max_defect(&sim.state.director);
+    println!(
+        "{label}: {steps} steps, contact in {contact_steps} steps, tip {:?}, frame defect {defect0:.2e} -> \
+         {defect_first_check:.2e} (first check) -> {defect:.2e} (end)",
+        sim.state.tip()
+    );
+    PlanarRun {
+        defect0,
+        defect_first_check,
+        defect,
+        contact_steps,
+    }
 }
 
 /// Scene of case (a): clamped rod with every load kind, two spheres at z = 0 (one fixed and
@@ -233,26 +256,15 @@ fn hook(
 fn planar_cantilever_with_contact_loads_damping_and_bjorck_stays_exactly_planar() {
     let id = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let mut sim = cantilever_scene(&id, [0.0; 3]);
-    let defect0 = max_defect(&sim.state.director);
-    let mut contact_steps = 0;
     let mut hk = hook(id);
-    let mut defect_first_check = f64::NAN;
-    for _ in 0..5000 {
-        sim.step_with(&mut hk).unwrap();
-        assert_planar(&sim, "cantilever");
-        if sim.steps() == 100 {
-            defect_first_check = max_defect(&sim.state.director);
-        }
-        if max_penetration(&sim.model, &sim.state, &sim.obstacles).0 > 0.0 {
-            contact_steps += 1;
-        }
-    }
-    let defect = max_defect(&sim.state.director);
-    println!(
-        "cantilever: 5000 steps, contact in {contact_steps} steps, tip {:?}, frame defect {defect0:.2e} -> \
-         {defect_first_check:.2e} (first check) -> {defect:.2e} (end)",
-        sim.state.tip()
-    );
+    let PlanarRun {
+        defect0,
+        defect_first_check,
+        defect,
+        contact_steps,
+    } = run_planar(&mut sim, "cantilever", 5000, |sim| {
+        sim.step_with(&mut hk).unwrap()
+    });
     assert!(contact_steps > 1000, "the scene must exercise contact");
     // The exact rotations preserve a ~1e-10 defect; only the Björck step (quadratic convergence:
     // 1e-10 → ~1e-20 + round-off) removes it at the first check, after which it stays below the
@@ -291,10 +303,12 @@ fn planar_arm_with_planar_control_spheres_and_energy_consistent_stays_exactly_pl
     ] {
         sim.add_obstacle(Sphere::fixed(c, 0.5 * d)).unwrap();
     }
-    let defect0 = max_defect(&sim.state.director);
-    let mut defect_first_check = f64::NAN;
-    let mut contact_steps = 0;
-    for _ in 0..6000 {
+    let PlanarRun {
+        defect0,
+        defect_first_check,
+        defect,
+        contact_steps,
+    } = run_planar(&mut sim, "arm", 6000, |sim| {
         // Planar control through the hook: a force per unit length along e_y and a couple about e_z.
         sim.step_with(|m, s, _, ext| {
             for (i, f) in ext.force.iter_mut().enumerate() {
@@ -304,21 +318,8 @@ fn planar_arm_with_planar_control_spheres_and_energy_consistent_stays_exactly_pl
                 c[1] += 1e-6 * m.rest_length[j];
             }
         })
-        .unwrap();
-        assert_planar(&sim, "arm");
-        if sim.steps() == 100 {
-            defect_first_check = max_defect(&sim.state.director);
-        }
-        if max_penetration(&sim.model, &sim.state, &sim.obstacles).0 > 0.0 {
-            contact_steps += 1;
-        }
-    }
-    let defect = max_defect(&sim.state.director);
-    println!(
-        "arm: 6000 steps, contact in {contact_steps} steps, tip {:?}, frame defect {defect0:.2e} -> \
-         {defect_first_check:.2e} (first check) -> {defect:.2e} (end)",
-        sim.state.tip()
-    );
+        .unwrap()
+    });
     assert!(contact_steps > 100, "the scene must exercise contact");
     assert!(
         defect0 > 1e-11 && defect_first_check < 1e-13 && defect < 1e-12,
@@ -355,20 +356,13 @@ fn planar_free_rod_curling_with_physical_damper_stays_exactly_planar() {
         ..Damping::default()
     })
     .unwrap();
-    let defect0 = max_defect(&sim.state.director);
-    let mut defect_first_check = f64::NAN;
-    for _ in 0..3000 {
-        sim.step().unwrap();
-        assert_planar(&sim, "free rod");
-        if sim.steps() == 100 {
-            defect_first_check = max_defect(&sim.state.director);
-        }
-    }
-    let defect = max_defect(&sim.state.director);
-    println!(
-        "free rod: 3000 steps, tip {:?}, frame defect {defect0:.2e} -> {defect_first_check:.2e} (first check) -> {defect:.2e} (end)",
-        sim.state.tip()
-    );
+    // No obstacles: the contact count stays 0.
+    let PlanarRun {
+        defect0,
+        defect_first_check,
+        defect,
+        ..
+    } = run_planar(&mut sim, "free rod", 3000, |sim| sim.step().unwrap());
     assert!(
         defect0 > 1e-11 && defect_first_check < 1e-13 && defect < 1e-12,
         "Björck step did not run"

@@ -19,9 +19,11 @@
 //! material mix-up of the external couple (eq. 9 table) or a stray shear–stretch couple leave a
 //! residual strain, an open polygon or a curvature error far above 1e-8.
 
+mod common;
+
+use common::{max_norm, norm, sub};
 use octoarm_physics::{
-    strains, AnalyticalDamper, Boundary, Damping, Load, Material, Settings, Simulation,
-    StraightRod, Vec3,
+    strains, AnalyticalDamper, Boundary, Damping, Load, Material, Settings, Simulation, StraightRod,
 };
 use std::f64::consts::PI;
 
@@ -48,22 +50,10 @@ fn damping() -> Damping {
     }
 }
 
-fn norm(a: Vec3) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
-
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
 fn run(sim: &mut Simulation) -> f64 {
     let steps = (T_END / DT).round() as u64;
     sim.run(steps).unwrap();
-    sim.state
-        .velocity
-        .iter()
-        .map(|v| norm(*v))
-        .fold(0.0, f64::max)
+    max_norm(&sim.state.velocity)
 }
 
 #[test]

@@ -19,51 +19,14 @@
 //! a function of Q_{k+1}Q_kᵀ alone, gives loads that change with the rotation far above round-off;
 //! a stepper that lets rounding-level strains grow breaks the rigid translation of (3).
 
+mod common;
+
+use common::{max_norm, norm, rot, rotation, sub};
 use octoarm_physics::{
     strains, Boundary, InternalLoads, Mat3, RodModel, RodState, Settings, Simulation, StraightRod,
     Vec3,
 };
 use proptest::prelude::*;
-
-/// exp([a]×) by Rodrigues with libm.
-fn rotation(a: Vec3) -> Mat3 {
-    let t2 = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
-    let k = [[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]];
-    let (s, c) = if t2 < 1e-20 {
-        (1.0, 0.5)
-    } else {
-        let t = t2.sqrt();
-        (t.sin() / t, (1.0 - t.cos()) / t2)
-    };
-    let mut r = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            let k2: f64 = (0..3).map(|m| k[i][m] * k[m][j]).sum();
-            r[i][j] = if i == j { 1.0 } else { 0.0 } + s * k[i][j] + c * k2;
-        }
-    }
-    r
-}
-
-fn rot(r: &Mat3, a: Vec3) -> Vec3 {
-    [
-        r[0][0] * a[0] + r[0][1] * a[1] + r[0][2] * a[2],
-        r[1][0] * a[0] + r[1][1] * a[1] + r[1][2] * a[2],
-        r[2][0] * a[0] + r[2][1] * a[1] + r[2][2] * a[2],
-    ]
-}
-
-fn norm(a: Vec3) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
-
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn max_norm(a: &[Vec3]) -> f64 {
-    a.iter().map(|v| norm(*v)).fold(0.0, f64::max)
-}
 
 /// Force scale max_j E Â_j [N] and torque scale [N m]: max(E I)/l̂_min for the bend/twist terms,
 /// and max(E Â) l̂_max for the shear–stretch couple l̂ (Qt) × n; for the arm the first dominates
@@ -87,6 +50,15 @@ fn scales(model: &RodModel) -> (f64, f64) {
         .fold(f64::INFINITY, f64::min);
     let l_max = model.rest_length.iter().copied().fold(0.0, f64::max);
     (ea, (ei / l_min).max(ea * l_max))
+}
+
+/// max_j B_j,11 [N m²]: with l̂_0 the bend-torque scale of the (h)(1) and (h)(3) criteria.
+fn max_bend_stiffness(model: &RodModel) -> f64 {
+    model
+        .bend_stiffness
+        .iter()
+        .map(|b| b[0])
+        .fold(0.0, f64::max)
 }
 
 /// Internal loads (with the velocity-dependent torques, as the stepper evaluates them).
@@ -153,16 +125,8 @@ fn h1_rotated_rest_arm_has_zero_internal_loads() {
     let (model, mut state) = StraightRod::paper_arm().build().unwrap();
     let (r, b) = spec_rotation();
     state.rigid_transform(&r, b);
-    let ea = model
-        .shear_stiffness
-        .iter()
-        .map(|s| s[2])
-        .fold(0.0, f64::max);
-    let ei = model
-        .bend_stiffness
-        .iter()
-        .map(|b| b[0])
-        .fold(0.0, f64::max);
+    let (ea, _) = scales(&model);
+    let ei = max_bend_stiffness(&model);
     let l = model.rest_length[0];
     for consistent in [false, true] {
         let out = loads(&model, &state, consistent);
@@ -216,12 +180,7 @@ fn h3_free_rod_translates_rigidly_without_internal_loads() {
     let dt = 1e-5;
     let mut sim = Simulation::new(model, state, Settings::with_dt(dt)).unwrap();
     let (ea, _) = scales(&sim.model);
-    let ei = sim
-        .model
-        .bend_stiffness
-        .iter()
-        .map(|b| b[0])
-        .fold(0.0, f64::max);
+    let ei = max_bend_stiffness(&sim.model);
     let l = sim.model.rest_length[0];
     let steps = 20_000;
     let (mut worst_x, mut worst_f, mut worst_t) = (0.0f64, 0.0f64, 0.0f64);

@@ -18,6 +18,9 @@
 //! end-element weights) breaks the force balance; an adhesive force (no max(0, ·)) holds the rod
 //! against the sphere when it should lift off.
 
+mod common;
+
+use common::{max_norm, norm};
 use octoarm_physics::{
     max_penetration, Boundary, Damping, Load, Material, Settings, Simulation, Sphere, StraightRod,
 };
@@ -28,12 +31,7 @@ use octoarm_physics::{
 fn relax(sim: &mut Simulation, t_max: f64) -> f64 {
     loop {
         sim.run(100).unwrap();
-        let vmax = sim
-            .state
-            .velocity
-            .iter()
-            .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
-            .fold(0.0, f64::max);
+        let vmax = max_norm(&sim.state.velocity);
         if vmax < 1e-7 && sim.state.time > 0.5 {
             return sim.state.time;
         }
@@ -65,10 +63,6 @@ fn contact_force(sim: &Simulation, p: [f64; 3], first_node: usize) -> [f64; 3] {
         }
     }
     f
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
 // (1) Free uniform rod (paper material, L = 0.2 m, d = 1 cm, N = 50) pushed by p = 5e-3 N/m

@@ -15,6 +15,9 @@
 //! the torque (4.3), a wrong inertia factor (J instead of J/e), a wrong shear stiffness or mass
 //! moves the fast tip modes and the error levels by far more than 2 %.
 
+mod common;
+
+use common::set_case_d_velocities;
 use octoarm_physics::{RodState, Settings, Simulation, StraightRod};
 
 const T_END: f64 = 0.02;
@@ -24,19 +27,7 @@ fn run(shear_coefficient: f64, dt: f64) -> RodState {
     let mut arm = StraightRod::paper_arm();
     arm.material.shear_coefficient = shear_coefficient;
     let (model, mut state) = arm.build().unwrap();
-    let a = 0.2;
-    let l0 = model.length();
-    for i in 1..=model.n_elements {
-        let q = a * (model.node_arc_length[i] / l0).powi(2);
-        state.velocity[i] = [0.0, q, 0.4 * q];
-    }
-    for j in 1..model.n_elements {
-        state.omega[j] = [
-            0.0,
-            0.0,
-            2.0 * a * model.element_midpoint_arc_length(j) / (l0 * l0),
-        ];
-    }
+    set_case_d_velocities(&model, &mut state, 0.2);
     let mut sim = Simulation::new(model, state, Settings::with_dt(dt)).unwrap();
     let steps = (T_END / dt).round() as u64;
     assert!((steps as f64 * dt - T_END).abs() < 1e-15);

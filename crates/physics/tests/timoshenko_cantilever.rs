@@ -18,6 +18,9 @@
 //! shape; a wrong clamp (e.g. only node 0 held, or frame not held) changes the clamp offset, so
 //! the shape error at the base and the convergence ratio of the continuum deviation both fail.
 
+mod common;
+
+use common::max_norm;
 use octoarm_physics::{
     AnalyticalDamper, Damping, Load, Material, Settings, Simulation, StraightRod, Vec3,
 };
@@ -91,12 +94,7 @@ fn relax(n: usize) -> (Vec<Vec3>, f64) {
         .unwrap();
     let steps = (T_END / DT).round() as u64;
     sim.run(steps).unwrap();
-    let vmax = sim
-        .state
-        .velocity
-        .iter()
-        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
-        .fold(0.0, f64::max);
+    let vmax = max_norm(&sim.state.velocity);
     (sim.state.position.clone(), vmax)
 }
 
