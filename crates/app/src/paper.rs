@@ -157,11 +157,28 @@ pub fn acceptance(o: &ExperimentOutcome) -> Vec<Check> {
             });
             let d0 = o.series.first().map_or(f64::NAN, |x| x.distance);
             let max = o.series.iter().map(|x| x.distance).fold(0.0, f64::max);
+            // Infeasible as stated: the arm starts at rest while the target recedes along the
+            // tip-to-target line, so d'(0+) > 0 (docs/paper-experiments.md, "Experiment B").
             out.push(check(
-                "d never exceeds d(0)",
+                "d never exceeds d(0) (infeasible from rest: d'(0+) = +0.033 L0/s)",
                 format!("d(0) = {d0:.4}, max {max:.4}"),
                 Some(max <= d0),
             ));
+            let worst = s
+                .update_tip_errors
+                .iter()
+                .filter(|e| e.0 >= 0.5)
+                .map(|e| e.1 / length)
+                .fold(f64::NAN, f64::max);
+            out.push(if worst.is_nan() {
+                check("design tip error ≤ 0.005 L0 after 0.5 s", short(0.5), None)
+            } else {
+                check(
+                    "design tip error ≤ 0.005 L0 after 0.5 s",
+                    format!("max {worst:.2e} L0"),
+                    Some(worst <= 0.005),
+                )
+            });
         }
         "obstacles" => {
             out.push(final_check(
