@@ -7,6 +7,7 @@
 use crate::output::{write_json, write_member, OutputDir, SpooledArray};
 use crate::paper::{acceptance, Check};
 use crate::paper_figures::{self, FigureFrame};
+use crate::progress::RunBar;
 use crate::runner::straight_rod;
 use crate::scenario::{RuleKind, Scenario, SolverModeKind};
 use anyhow::{Context, Result};
@@ -116,9 +117,14 @@ pub fn experiment_spec(scn: &Scenario) -> Option<ExperimentSpec> {
     })
 }
 
+/// Steps the driver takes for `spec` (the length of its progress bar).
+pub fn total_steps(spec: &ExperimentSpec) -> u64 {
+    (spec.duration / spec.dt).round() as u64
+}
+
 /// Frames the driver emits for `spec`: t = 0, every frame interval, and the end.
 pub fn planned_frames(spec: &ExperimentSpec) -> usize {
-    let total = (spec.duration / spec.dt).round() as u64;
+    let total = total_steps(spec);
     let every = ((spec.frame_interval / spec.dt).round() as u64).max(1);
     (1 + total / every + u64::from(total % every != 0)) as usize
 }
@@ -136,9 +142,11 @@ fn streamed(n: usize) -> [(&'static str, Vec<usize>); 6] {
 }
 
 /// Streams the driver's frames into spooled `.npz` members and keeps the centrelines for the
-/// figures (a 4 s run at 10 ms is 401 frames of ~5 kB each).
+/// figures (a 4 s run at 10 ms is 401 frames of ~5 kB each); moves the run's progress bar.
 struct TrajectorySink {
     model: RodModel,
+    dt: f64,
+    bar: RunBar,
     state: RodState,
     sigma: Vec<[f64; 3]>,
     kappa: Vec<[f64; 3]>,
@@ -151,13 +159,15 @@ struct TrajectorySink {
 }
 
 impl TrajectorySink {
-    fn new(spec: &ExperimentSpec, dir: &Path) -> Result<Self> {
+    fn new(spec: &ExperimentSpec, dir: &Path, bar: RunBar) -> Result<Self> {
         let (model, state) = spec.arm.build()?;
         let n = model.n_elements;
         let planned = planned_frames(spec);
         let spools = SpooledArray::create_members(dir, streamed(n), planned)?;
         Ok(Self {
             model,
+            dt: spec.dt,
+            bar,
             state,
             sigma: vec![[0.0; 3]; n],
             kappa: vec![[0.0; 3]; n - 1],
@@ -222,6 +232,10 @@ impl ExperimentSink for TrajectorySink {
             }
         }
     }
+
+    fn progress(&mut self, time: f64, _duration: f64) {
+        self.bar.update((time / self.dt).round() as u64, time);
+    }
 }
 
 /// What a controlled run produced.
@@ -245,13 +259,15 @@ pub struct ControlledRun {
 
 /// Run a controlled scenario into `out` (committed at the end, also after a failed run) and
 /// write trajectory.npz, series.npz, distance.csv, summary.json, scenario.toml, shapes.png and
-/// shapes.gif (figures unless `figures` is false). Errors are I/O or internal failures; a run
-/// the driver stops is reported in `ControlledRun::failure`.
+/// shapes.gif (figures unless `figures` is false). `bar` shows the stepping (`total_steps(spec)`
+/// long) and is removed when it ends. Errors are I/O or internal failures; a run the driver
+/// stops is reported in `ControlledRun::failure`.
 pub fn run(
     scn: &Scenario,
     spec: &ExperimentSpec,
     out: OutputDir,
     figures: bool,
+    bar: RunBar,
 ) -> Result<ControlledRun> {
     let wall = Instant::now();
     tracing::info!(
@@ -261,8 +277,9 @@ pub fn run(
         spec.dt,
         out.target().display()
     );
-    let mut sink = TrajectorySink::new(spec, &out.path(""))?;
+    let mut sink = TrajectorySink::new(spec, &out.path(""), bar)?;
     let result = run_experiment(spec, &mut sink);
+    sink.bar.finish();
     let frames = sink.finish(&out.path("trajectory.npz"))?;
     let (outcome, failure) = match result {
         Ok(o) => (Some(o), None),

@@ -1,9 +1,9 @@
 //! octoarm, the application: scenario files (`scenario`), the runner that turns a scenario into a
 //! simulation and steps it (`runner`), the recorder that streams frames (`recorder`), output files
-//! (`output`) and figures (`figures`); controlled runs (`controlled`) and the paper's experiments
-//! (`paper`, `paper_figures`, `gif`) on top of `octoarm-control`. The physics lives in
-//! `octoarm-physics`; this crate owns files, the command line's work and everything a user
-//! reads. The binary is a thin clap layer.
+//! (`output`), figures (`figures`) and progress bars (`progress`); controlled runs (`controlled`)
+//! and the paper's experiments (`paper`, `paper_figures`, `gif`) on top of `octoarm-control`.
+//! The physics lives in `octoarm-physics`; this crate owns files, the command line's work and
+//! everything a user reads. The binary is a thin clap layer.
 
 pub mod controlled;
 pub mod figures;
@@ -12,6 +12,7 @@ pub mod output;
 pub mod paper;
 pub mod paper_figures;
 mod plot;
+pub mod progress;
 pub mod recorder;
 pub mod runner;
 pub mod scenario;

@@ -5,6 +5,7 @@
 use anyhow::Result;
 use clap::{ArgAction, Parser, Subcommand};
 use octoarm::output::{OutputDir, OutputError};
+use octoarm::progress::Progress;
 use octoarm::runner::{self, RunOptions};
 use octoarm::scenario::{Scenario, ScenarioError};
 use octoarm::{controlled, paper};
@@ -125,6 +126,11 @@ fn init_logging(cli: &Cli) {
         .init();
 }
 
+/// Progress bars go to stderr, only if it is a terminal, and not with `--quiet`.
+fn show_progress(quiet: bool) -> bool {
+    !quiet && std::io::stderr().is_terminal()
+}
+
 fn load(path: &std::path::Path, duration: Option<f64>) -> Result<Scenario> {
     let mut scn = Scenario::load(path)?;
     if let Some(d) = duration {
@@ -151,7 +157,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             paper::prepare_root(&out)?;
             let threads = threads.unwrap_or_else(paper::default_threads);
-            let report = paper::run_paper(&scenarios, &out, threads, true, !cli.quiet)?;
+            let bars = Progress::new(show_progress(cli.quiet));
+            let report = paper::run_paper(&scenarios, &out, threads, true, !cli.quiet, &bars)?;
             if !report.all_ok() {
                 return Err(RunFailed {
                     message: format!(
@@ -182,7 +189,9 @@ fn run(cli: Cli) -> Result<()> {
             let target = out.unwrap_or_else(|| octoarm::default_out_dir(&scn));
             let out = OutputDir::prepare(&target)?;
             if let Some(spec) = controlled::experiment_spec(&scn) {
-                let run = controlled::run(&scn, &spec, out, true)?;
+                let bar =
+                    Progress::new(show_progress(cli.quiet)).bar(controlled::total_steps(&spec), "");
+                let run = controlled::run(&scn, &spec, out, true, bar)?;
                 if let Some(failure) = run.failure {
                     return Err(RunFailed {
                         message: format!(
@@ -209,7 +218,7 @@ fn run(cli: Cli) -> Result<()> {
                 return Ok(());
             }
             let opts = RunOptions {
-                progress: !cli.quiet && std::io::stderr().is_terminal(),
+                progress: show_progress(cli.quiet),
                 no_figures: false,
             };
             let report = runner::run(&scn, out, opts)?;

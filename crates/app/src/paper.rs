@@ -7,6 +7,7 @@ use crate::controlled::{self, ControlledRun};
 use crate::output::OutputDir;
 use crate::output::OutputError;
 use crate::paper_figures::{self, DistanceCurve};
+use crate::progress::Progress;
 use crate::scenario::{Scenario, ScenarioError};
 use anyhow::{Context, Result};
 use octoarm_control::{ExperimentOutcome, ExperimentSpec};
@@ -297,13 +298,15 @@ impl PaperReport {
 
 /// Run the four experiments into `root` (already prepared) on `threads` workers, longest first,
 /// each folder committed as it completes; then write `distance.png` and `report.md`. `progress`
-/// prints one line per finished experiment on stderr.
+/// prints one line per finished experiment on stderr; `bars` shows one bar per running
+/// experiment.
 pub fn run_paper(
     scenarios: &[Scenario],
     root: &Path,
     threads: usize,
     figures: bool,
     progress: bool,
+    bars: &Progress,
 ) -> Result<PaperReport> {
     let wall = Instant::now();
     let specs: Vec<ExperimentSpec> = scenarios
@@ -335,9 +338,13 @@ pub fn run_paper(
                 let k = next.fetch_add(1, Ordering::SeqCst);
                 let Some(&i) = order.get(k) else { break };
                 let (scn, spec) = (&scenarios[i], &specs[i]);
+                let bar = bars.bar(
+                    controlled::total_steps(spec),
+                    &format!("{} {:<13}", letter(&spec.name), spec.name),
+                );
                 let result = OutputDir::prepare(&root.join(&spec.name))
                     .map_err(anyhow::Error::from)
-                    .and_then(|out| controlled::run(scn, spec, out, figures));
+                    .and_then(|out| controlled::run(scn, spec, out, figures, bar));
                 let result = match result {
                     Ok(run) => {
                         if progress {
@@ -350,19 +357,21 @@ pub fn run_paper(
                                 ),
                                 Some(f) => format!("FAILED: {f}"),
                             };
-                            eprintln!(
-                                "{} {}: {status}, {:.1} s wall -> {}",
-                                letter(&spec.name),
-                                spec.name,
-                                run.wall_seconds,
-                                run.out_dir.display()
-                            );
+                            bars.suspend(|| {
+                                eprintln!(
+                                    "{} {}: {status}, {:.1} s wall -> {}",
+                                    letter(&spec.name),
+                                    spec.name,
+                                    run.wall_seconds,
+                                    run.out_dir.display()
+                                )
+                            });
                         }
                         PaperResult::Ran(Box::new(run))
                     }
                     Err(e) => {
                         let msg = format!("{}: {e:#}", spec.name);
-                        eprintln!("error: {msg}");
+                        bars.suspend(|| eprintln!("error: {msg}"));
                         PaperResult::Error(msg)
                     }
                 };

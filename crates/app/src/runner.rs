@@ -5,17 +5,17 @@
 
 use crate::figures;
 use crate::output::{write_json, OutputDir};
+use crate::progress::Progress;
 use crate::recorder::{streamed_arrays, Recorder, SERIES};
 use crate::scenario::{fmt_vec, LoadKind, ObstacleKind, Scenario, ScenarioError};
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use octoarm_physics::{
     ContactParams, Damping, Load, Material, ModelError, Settings, Simulation, Sphere, StepError,
     StraightRod,
 };
 use serde_json::json;
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// How a run reports progress.
 #[derive(Debug, Clone, Copy, Default)]
@@ -212,53 +212,6 @@ pub fn advisories(scn: &Scenario, sim: &Simulation) -> Vec<String> {
     out
 }
 
-/// A progress bar that appears only after the run has lasted a second.
-struct Progress {
-    bar: Option<ProgressBar>,
-    start: Instant,
-    shown: bool,
-}
-
-impl Progress {
-    fn new(enabled: bool, steps: u64) -> Self {
-        let bar = enabled.then(|| {
-            let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{elapsed_precise} [{wide_bar}] {percent:>3}%  t = {msg} s  eta {eta}",
-                )
-                .expect("a valid template")
-                .progress_chars("=> "),
-            );
-            bar
-        });
-        Self {
-            bar,
-            start: Instant::now(),
-            shown: false,
-        }
-    }
-
-    fn update(&mut self, step: u64, time: f64) {
-        if let Some(bar) = &self.bar {
-            if !self.shown && self.start.elapsed() > Duration::from_secs(1) {
-                bar.set_draw_target(ProgressDrawTarget::stderr_with_hz(5));
-                self.shown = true;
-            }
-            if self.shown {
-                bar.set_message(format!("{time:.3}"));
-                bar.set_position(step);
-            }
-        }
-    }
-
-    fn finish(&self) {
-        if let Some(bar) = &self.bar {
-            bar.finish_and_clear();
-        }
-    }
-}
-
 /// Advance `sim` by `n_steps`, recording after every `save_every` steps and after the last
 /// one (t = 0 must already be recorded). The guard runs before each recorded frame, so every
 /// recorded frame is finite. Returns the instability that stopped the loop, if any.
@@ -308,7 +261,7 @@ pub fn run(scn: &Scenario, out: OutputDir, opts: RunOptions) -> Result<RunReport
         out.target().display()
     );
     let mut recorder = Recorder::new(&sim.model, planned, &out.path(""))?;
-    let mut progress = Progress::new(opts.progress, n_steps);
+    let progress = Progress::new(opts.progress).bar(n_steps, "");
 
     let loop_start = Instant::now();
     let mut failure = sim.check().err();

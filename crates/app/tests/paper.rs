@@ -6,6 +6,8 @@
 //! header `time,distance`; report.md has one row per experiment and marks the checks about
 //! later times as undecided; `octoarm run scenarios/paper/two-targets.toml` gives the same
 //! distances bit for bit as `octoarm paper` (same spec, no dependence on the worker threads).
+//! Without a terminal (as here), a controlled run longer than a second prints no progress bar:
+//! its stderr is empty and its outputs are those of the same run with `-q`.
 
 use ndarray::{Array1, Array2, Array3, Array4};
 use ndarray_npy::NpzReader;
@@ -197,4 +199,64 @@ fn paper_command_writes_every_output_and_matches_run() {
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not an `octoarm paper` output"));
+}
+
+#[test]
+fn controlled_run_without_a_terminal_prints_no_progress_and_quiet_changes_no_output() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scn = workspace().join("scenarios/paper/two-targets.toml");
+    // The full 4 s: about 2 s of stepping on one core, so a bar would have appeared after its
+    // 1 s delay.
+    let run = |out: &str, quiet: bool| {
+        let mut args = vec!["run", scn.to_str().unwrap(), "--out", out];
+        if quiet {
+            args.push("-q");
+        }
+        octoarm(&args, tmp.path())
+    };
+    let loud = run("loud", false);
+    assert!(
+        loud.status.success(),
+        "{}",
+        String::from_utf8_lossy(&loud.stderr)
+    );
+    assert!(
+        loud.stderr.is_empty(),
+        "stderr is not a terminal: no progress bar, got {:?}",
+        String::from_utf8_lossy(&loud.stderr)
+    );
+    assert!(String::from_utf8_lossy(&loud.stdout).starts_with("wrote loud ("));
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(tmp.path().join("loud/summary.json")).unwrap(),
+    )
+    .unwrap();
+    let stepping = summary["summary"]["experiment_wall_seconds"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        stepping > 1.0,
+        "the run stepped for {stepping} s, too short for a bar to appear: use a longer scenario"
+    );
+
+    let quiet = run("quiet", true);
+    assert!(
+        quiet.status.success(),
+        "{}",
+        String::from_utf8_lossy(&quiet.stderr)
+    );
+    assert!(quiet.stderr.is_empty() && quiet.stdout.is_empty());
+    for f in [
+        "trajectory.npz",
+        "series.npz",
+        "distance.csv",
+        "scenario.toml",
+        "shapes.png",
+        "shapes.gif",
+    ] {
+        assert_eq!(
+            std::fs::read(tmp.path().join("loud").join(f)).unwrap(),
+            std::fs::read(tmp.path().join("quiet").join(f)).unwrap(),
+            "{f}"
+        );
+    }
 }

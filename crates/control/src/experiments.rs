@@ -1,8 +1,9 @@
 //! The paper's four experiments (spec §5) as data and one driver: an `ExperimentSpec` (arm,
 //! damping, targets, obstacles, grasp, solver schedule, ramp), `run_experiment` which builds the
 //! simulation, designs w̄ offline or online, drives the rod with the energy-shaping law and
-//! returns the scalar series (every `series_interval`) and derived figures; shape frames go to an
-//! `ExperimentSink`. It never writes files and never plots: that is the application's job.
+//! returns the scalar series (every `series_interval`) and derived figures; shape frames and the
+//! progress in simulated time go to an `ExperimentSink`. It never writes files, plots or draws
+//! progress bars: that is the application's job.
 use crate::error::{ShapingError, SolveError, StaticsError};
 use crate::shaping::{EnergyShapingController, ShapingConfig};
 use crate::solver::{OfflineSolver, OnlineConfig, OnlineSolver, SolverConfig};
@@ -525,10 +526,16 @@ pub struct Frame {
     pub design_target: Option<Vec3>,
 }
 
-/// Receives the shape frames as they are produced (the driver keeps none).
+/// Receives the shape frames as they are produced (the driver keeps none), and how far the run
+/// has got.
 pub trait ExperimentSink {
     /// A new frame.
     fn frame(&mut self, frame: &Frame);
+
+    /// The run has reached simulated time `time` of `duration` [s]; called at every series
+    /// sample (every `series_interval`, t = 0 and the end included), after that time's frame.
+    /// For progress displays; the default does nothing.
+    fn progress(&mut self, _time: f64, _duration: f64) {}
 }
 
 /// A sink that keeps every frame in memory.
@@ -926,6 +933,7 @@ pub fn run_experiment(
                 penetration: pen,
                 design_epoch,
             });
+            sink.progress(t, spec.duration);
         }
         if step == total_steps {
             break;
@@ -1039,5 +1047,46 @@ fn finish_summary(spec: &ExperimentSpec, series: &[Sample], summary: &mut Summar
             settling_time: settling,
             overshoot,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Records the progress calls and counts the frames.
+    #[derive(Default)]
+    struct Recorder {
+        frames: usize,
+        progress: Vec<(f64, f64)>,
+    }
+
+    impl ExperimentSink for Recorder {
+        fn frame(&mut self, _frame: &Frame) {
+            self.frames += 1;
+        }
+
+        fn progress(&mut self, time: f64, duration: f64) {
+            self.progress.push((time, duration));
+        }
+    }
+
+    /// The progress hook is called once per series sample, at the sample's time, up to the
+    /// duration; it does not change what the driver computes.
+    #[test]
+    fn progress_is_reported_at_every_sample_up_to_the_duration() {
+        let spec = ExperimentSpec {
+            duration: 0.0105,
+            ..ExperimentSpec::paper_a()
+        };
+        let mut sink = Recorder::default();
+        let out = run_experiment(&spec, &mut sink).unwrap();
+        let times: Vec<f64> = sink.progress.iter().map(|p| p.0).collect();
+        assert_eq!(times, out.column(|s| s.time));
+        assert!(sink.progress.iter().all(|p| p.1 == spec.duration));
+        assert!((times[times.len() - 1] - spec.duration).abs() < 1e-12);
+        assert_eq!(sink.frames, 3, "frames at 0, 10 ms and the end");
+        let plain = run_experiment(&spec, &mut NoFrames).unwrap();
+        assert_eq!(plain.series, out.series);
     }
 }

@@ -3,6 +3,13 @@
 //! few segments; one action holds for one control period. Arms are stepped in parallel on a
 //! private rayon pool; each arm's arithmetic is sequential and independent of the others, so
 //! results are bit-identical whatever the thread count. Randomness (targets) lives in Python.
+//!
+//! Observation (float32, every component dimensionless and inside the finite bounds of
+//! `observation_bounds`): node x, y / L0 in [−1.5, 1.5]; node vx, vy / (10 L0/s) in [−5, 5];
+//! target x, y / L0 in [−1.5, 1.5]; lagged rest-curvature command per segment / max_curvature
+//! in [−1, 1]; last (clipped) action in [−1, 1]. L0 = 0.2 m is the arm's rest length. Positions
+//! and velocities are clipped to their bounds (the arm is inextensible enough never to reach
+//! 1.5 L0; the velocity bound is ~6× the fastest node seen under bang-bang commands).
 
 use crate::arrays::shape_str;
 use crate::{model_error, rod::Simulation as PySimulation, step_error};
@@ -13,13 +20,24 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-/// One arm of the batch: the simulation, its initial copy, target and last action.
+/// Rest length L0 of the arm [m] (the paper's arm): the position scale of the observation.
+const ARM_LENGTH: f64 = 0.2;
+/// Bound of the normalised positions (node and target): |x| / L0 ≤ 1.5.
+const POSITION_BOUND: f64 = 1.5;
+/// Velocity scale of the observation [m/s]: 10 L0 per second.
+const VELOCITY_SCALE: f64 = 10.0 * ARM_LENGTH;
+/// Bound of the normalised velocities: |v| / VELOCITY_SCALE ≤ 5 (10 m/s).
+const VELOCITY_BOUND: f64 = 5.0;
+
+/// One arm of the batch: the simulation, its initial copy, target, last action and the lagged
+/// rest curvature per segment [1/m] (the actuator state).
 #[derive(Clone)]
 struct Arm {
     sim: Simulation,
     initial: Simulation,
     target: [f64; 2],
     action: Vec<f64>,
+    curvature: Vec<f64>,
 }
 
 /// Configuration shared by all arms of a batch (validated in `ArmBatch::new`).
@@ -48,11 +66,15 @@ impl Arm {
         } else {
             1.0
         };
+        // Every interior point of a segment starts from the same rest curvature and follows the
+        // same goal, so one lagged value per segment is the whole actuator state.
         for _ in 0..cfg.steps_per_action {
+            for (c, a) in self.curvature.iter_mut().zip(&self.action) {
+                let goal = a * cfg.max_curvature;
+                *c += alpha * (goal - *c);
+            }
             for (k, kappa) in self.sim.model.rest_kappa.iter_mut().enumerate() {
-                let seg = k * cfg.n_segments / n_interior;
-                let goal = self.action[seg] * cfg.max_curvature;
-                kappa[1] += alpha * (goal - kappa[1]);
+                kappa[1] = self.curvature[k * cfg.n_segments / n_interior];
             }
             self.sim.step()?;
         }
@@ -70,23 +92,31 @@ impl Arm {
         -self.tip_distance() - cfg.effort_weight * effort
     }
 
-    /// Observation: node x, y [m]; node vx, vy [m/s]; target x, y [m]; last action.
-    fn observe(&self, out: &mut [f32]) {
+    /// Observation (see the module docs): node x, y / L0; node vx, vy / (10 L0/s); target
+    /// x, y / L0; lagged rest curvature / max_curvature per segment; last action. Each
+    /// component is clipped to its bound (in f64, so the f32 value is inside the bound too).
+    fn observe(&self, cfg: &Config, out: &mut [f32]) {
         let s = &self.sim.state;
+        let pos = |x: f64| (x / ARM_LENGTH).clamp(-POSITION_BOUND, POSITION_BOUND) as f32;
+        let vel = |v: f64| (v / VELOCITY_SCALE).clamp(-VELOCITY_BOUND, VELOCITY_BOUND) as f32;
         let mut o = 0;
         for p in &s.position {
-            out[o] = p[0] as f32;
-            out[o + 1] = p[1] as f32;
+            out[o] = pos(p[0]);
+            out[o + 1] = pos(p[1]);
             o += 2;
         }
         for v in &s.velocity {
-            out[o] = v[0] as f32;
-            out[o + 1] = v[1] as f32;
+            out[o] = vel(v[0]);
+            out[o + 1] = vel(v[1]);
             o += 2;
         }
-        out[o] = self.target[0] as f32;
-        out[o + 1] = self.target[1] as f32;
+        out[o] = pos(self.target[0]);
+        out[o + 1] = pos(self.target[1]);
         o += 2;
+        for c in &self.curvature {
+            out[o] = (c / cfg.max_curvature).clamp(-1.0, 1.0) as f32;
+            o += 1;
+        }
         for (dst, a) in out[o..].iter_mut().zip(&self.action) {
             *dst = *a as f32;
         }
@@ -114,6 +144,7 @@ impl ArmBatch {
         let mut out = Array2::<f32>::zeros((self.arms.len(), self.obs_dim));
         for (arm, mut row) in self.arms.iter().zip(out.rows_mut()) {
             arm.observe(
+                &self.cfg,
                 row.as_slice_mut()
                     .expect("rows of a standard array are contiguous"),
             );
@@ -207,6 +238,7 @@ impl ArmBatch {
             sim,
             target: [0.1, 0.1],
             action: vec![0.0; n_segments],
+            curvature: vec![0.0; n_segments],
         };
         let n_nodes = n_elements as usize + 1;
         Ok(Self {
@@ -219,7 +251,7 @@ impl ArmBatch {
                 activation_time,
             },
             pool,
-            obs_dim: 4 * n_nodes + 2 + n_segments,
+            obs_dim: 4 * n_nodes + 2 + 2 * n_segments,
             control_period,
         })
     }
@@ -234,6 +266,38 @@ impl ArmBatch {
     #[getter]
     fn obs_dim(&self) -> usize {
         self.obs_dim
+    }
+
+    /// Lower and upper bounds of one observation, each (obs_dim,) float32 (finite; every
+    /// observation lies inside them): ±1.5 for positions and target (÷ L0), ±5 for velocities
+    /// (÷ 10 L0/s), ±1 for the lagged rest curvatures (÷ max_curvature) and the last action.
+    fn observation_bounds<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>) {
+        let n_nodes = self.arms[0].sim.state.position.len();
+        let mut high = vec![POSITION_BOUND as f32; 2 * n_nodes];
+        high.resize(4 * n_nodes, VELOCITY_BOUND as f32);
+        high.resize(4 * n_nodes + 2, POSITION_BOUND as f32);
+        high.resize(self.obs_dim, 1.0);
+        debug_assert_eq!(high.len(), self.obs_dim);
+        let low: Vec<f32> = high.iter().map(|h| -h).collect();
+        (
+            Array1::from_vec(low).into_pyarray(py),
+            Array1::from_vec(high).into_pyarray(py),
+        )
+    }
+
+    /// Rest length L0 of the arm [m]: observed positions and target are divided by it.
+    #[getter]
+    fn length(&self) -> f64 {
+        ARM_LENGTH
+    }
+
+    /// Velocity scale [m/s] (10 L0/s): observed velocities are divided by it.
+    #[getter]
+    fn velocity_scale(&self) -> f64 {
+        VELOCITY_SCALE
     }
 
     /// Length of one action (= n_segments).
@@ -254,8 +318,9 @@ impl ArmBatch {
         self.cfg.steps_per_action
     }
 
-    /// Reset the arms `indices` (default: all) to rest with the given targets (k, 2) [m];
-    /// returns the observations of all arms, (n_envs, obs_dim) float32.
+    /// Reset the arms `indices` (default: all) to rest with the given targets (k, 2) [m], each
+    /// coordinate within ±1.5 L0 = ±0.3 m; returns the observations of all arms,
+    /// (n_envs, obs_dim) float32.
     #[pyo3(signature = (targets, indices = None))]
     fn reset<'py>(
         &mut self,
@@ -280,10 +345,17 @@ impl ArmBatch {
             if !target.iter().all(|v| v.is_finite()) {
                 return Err(PyValueError::new_err("targets must be finite"));
             }
+            let limit = POSITION_BOUND * ARM_LENGTH;
+            for (name, v) in ["target x", "target y"].iter().zip(target) {
+                if v.abs() > limit {
+                    return Err(bad(name, v, &format!("[{}, {limit}]", -limit)));
+                }
+            }
             let arm = &mut self.arms[i];
             arm.sim.clone_from(&arm.initial);
             arm.target = target;
             arm.action.fill(0.0);
+            arm.curvature.fill(0.0);
         }
         Ok(self.obs().into_pyarray(py))
     }

@@ -8,11 +8,31 @@ by default), clamped at the origin along +x, bending in the x-y plane.
   ``a_s * max_curvature`` (20 1/m by default), like a muscle that shortens one side of the arm.
   An action holds for one **control period of 10 ms** (200 steps of dt = 50 us): one environment
   step = 10 ms of simulated time.
-* **Observation** (float32): node x, y [m] (n + 1 pairs), node vx, vy [m/s] (n + 1 pairs), the
-  target x, y [m], and the last (clipped) action.
+* **Observation** (float32, ``4 (n + 1) + 2 + 2 n_segments`` = 94 values by default), every
+  component dimensionless, with finite bounds (``observation_space``) that it never leaves:
+
+  ====================  =====================  =============================  ==============
+  slice                 component              normalisation                  bounds
+  ====================  =====================  =============================  ==============
+  ``[0, 2(n+1))``       node x, y (pairs)      / L0 (L0 = 0.2 m, arm length)  [-1.5, 1.5]
+  ``[2(n+1), 4(n+1))``  node vx, vy (pairs)    / (10 L0/s = 2 m/s)            [-5, 5]
+  next 2                target x, y            / L0                           [-1.5, 1.5]
+  next ``n_segments``   rest curvature         / max_curvature (20 1/m)       [-1, 1]
+  last ``n_segments``   last (clipped) action  none                           [-1, 1]
+  ====================  =====================  =============================  ==============
+
+  The rest curvature is the actuator state: the lagged rest curvature of each segment, which
+  follows ``a_s * max_curvature`` with the time constant ``activation_time`` (50 ms). Without
+  it the effect of an action would depend on unobserved history. (The elements' orientations
+  and angular velocities are not observed either; the arm barely shears, so they follow closely
+  from the node positions and velocities.) Positions and velocities are clipped to their
+  bounds, which only matters in pathological runs: the arm barely stretches (nodes stay within
+  about 1.01 L0 of the base), and the fastest node seen under bang-bang commands moves at
+  1.7 m/s (0.9 normalised).
 * **Reward**: ``-|tip - target| [m] - effort_weight * mean(a**2)`` (effort_weight = 0.01).
 * **Episode**: 200 steps (2 s), truncated by Gymnasium's TimeLimit; never terminated.
-  Targets are drawn from the seeded ``np_random`` at radius 0.08-0.18 m, angle +-60 deg.
+  Targets are drawn from the seeded ``np_random`` at radius 0.08-0.18 m, angle +-60 deg;
+  ``reset(options={"target": [x, y]})`` sets one [m] (each coordinate within +-1.5 L0 = 0.3 m).
 
 ``ArmReachVectorEnv``: ``num_envs`` arms stepped in parallel by Rust threads (rayon,
 ``num_threads``; default all cores), with Gymnasium's next-step autoreset. The physics of
@@ -41,7 +61,8 @@ def _sample_targets(rng: np.random.Generator, k: int) -> np.ndarray:
 
 
 def _spaces(batch: ArmBatch) -> tuple[spaces.Box, spaces.Box]:
-    obs = spaces.Box(-np.inf, np.inf, shape=(batch.obs_dim,), dtype=np.float32)
+    low, high = batch.observation_bounds()
+    obs = spaces.Box(low, high, dtype=np.float32)
     act = spaces.Box(-1.0, 1.0, shape=(batch.action_dim,), dtype=np.float32)
     return obs, act
 
@@ -50,7 +71,12 @@ class ArmReachEnv(gym.Env):
     """One planar arm reaching a target; see the module docstring for spaces and reward.
 
     Keyword arguments are those of :class:`octoarm.ArmBatch` (``n_elements``, ``n_segments``,
-    ``max_curvature``, ``control_period``, ``dt``, ``damping_rate``, ``effort_weight``).
+    ``max_curvature``, ``control_period``, ``dt``, ``damping_rate``, ``effort_weight``,
+    ``tip_diameter``, ``activation_time``).
+
+    Observation: node x, y / L0 in [-1.5, 1.5]; node vx, vy / (10 L0/s) in [-5, 5]; target x, y
+    / L0 in [-1.5, 1.5]; lagged rest curvature per segment / max_curvature in [-1, 1]; last
+    action in [-1, 1] (L0 = 0.2 m; details in the module docstring).
     """
 
     metadata = {"render_modes": []}
@@ -83,7 +109,11 @@ class ArmReachEnv(gym.Env):
 
 
 class ArmReachVectorEnv(VectorEnv):
-    """``num_envs`` arms stepped in parallel in Rust; next-step autoreset (Gymnasium >= 1.0)."""
+    """``num_envs`` arms stepped in parallel in Rust; next-step autoreset (Gymnasium >= 1.0).
+
+    Same spaces, observation and reward per arm as :class:`ArmReachEnv`; observations are
+    (num_envs, obs_dim) float32.
+    """
 
     metadata = {"render_modes": [], "autoreset_mode": "NextStep"}
 
