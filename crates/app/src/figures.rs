@@ -5,8 +5,8 @@
 use crate::plot::{
     draw_disc, ensure_font, equal_chart, err, legend, mesh, mix_rgb, png_canvas, tick,
 };
-use crate::recorder::Recorder;
-use crate::scenario::ObstacleConfig;
+use crate::recorder::TrajectoryRecorder as Recorder;
+use octoarm_physics::Sphere;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use std::path::Path;
@@ -28,13 +28,15 @@ pub fn viridis(u: f64) -> RGBColor {
 
 const AXIS: [&str; 3] = ["x", "y", "z"];
 
-/// Centrelines of the recorded frames (up to ~40, evenly spread in time, the last always
-/// included), projected on the two lab axes with the largest extent, equal scales, colour by
-/// time with a colour bar; the tip path as a thin grey line; obstacles as outlines.
+/// Centrelines of every rod at the recorded frames (up to ~40, evenly spread in time, the last
+/// always included), projected on the two lab axes with the largest extent, equal scales,
+/// colour by time with a colour bar; the tip paths as thin grey lines; obstacles as outlines;
+/// held bases as black dots.
 pub fn shapes_png(
     path: &Path,
     rec: &Recorder,
-    obstacles: &[ObstacleConfig],
+    obstacles: &[Sphere],
+    bases: &[[f64; 3]],
     title: &str,
 ) -> Result<()> {
     ensure_font();
@@ -56,8 +58,8 @@ pub fn shapes_png(
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in shapes
         .iter()
-        .flat_map(|(_, x)| x.iter())
-        .chain(rec.tip.iter())
+        .flat_map(|(_, rods)| rods.iter().flatten())
+        .chain(rec.tips.iter().flatten())
     {
         for c in 0..3 {
             lo[c] = lo[c].min(p[c]);
@@ -72,7 +74,7 @@ pub fn shapes_png(
         (order[1], order[0])
     };
     for o in obstacles {
-        let r = 0.5 * o.diameter;
+        let r = o.radius;
         for c in [ax, ay] {
             lo[c] = lo[c].min(o.center[c] - r);
             hi[c] = hi[c].max(o.center[c] + r);
@@ -107,32 +109,42 @@ pub fn shapes_png(
         draw_disc(
             &mut chart,
             (o.center[ax], o.center[ay]),
-            0.5 * o.diameter,
+            o.radius,
             RGBColor(200, 200, 200).mix(0.5).filled(),
             RGBColor(120, 120, 120).stroke_width(2),
         )?;
     }
-    let tip: Vec<(f64, f64)> = rec.tip.iter().map(|p| (p[ax], p[ay])).collect();
-    chart
-        .draw_series(LineSeries::new(
-            tip,
-            RGBColor(150, 150, 150).stroke_width(1),
-        ))
-        .map_err(err)?;
-    let span = if t1 > t0 { t1 - t0 } else { 1.0 };
-    for &i in &pick {
-        let (t, x) = &shapes[i];
-        let colour = viridis((t - t0) / span);
-        let line: Vec<(f64, f64)> = x.iter().map(|p| (p[ax], p[ay])).collect();
+    for tips in &rec.tips {
+        let tip: Vec<(f64, f64)> = tips.iter().map(|p| (p[ax], p[ay])).collect();
         chart
-            .draw_series(LineSeries::new(line, colour.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                tip,
+                RGBColor(150, 150, 150).stroke_width(1),
+            ))
             .map_err(err)?;
     }
-    chart
-        .draw_series(std::iter::once(Circle::new((0.0, 0.0), 5, BLACK.filled())))
-        .map_err(err)?
-        .label("clamped base")
-        .legend(|(x, y)| Circle::new((x, y), 4, BLACK.filled()));
+    let span = if t1 > t0 { t1 - t0 } else { 1.0 };
+    for &i in &pick {
+        let (t, rods) = &shapes[i];
+        let colour = viridis((t - t0) / span);
+        for x in rods {
+            let line: Vec<(f64, f64)> = x.iter().map(|p| (p[ax], p[ay])).collect();
+            chart
+                .draw_series(LineSeries::new(line, colour.stroke_width(2)))
+                .map_err(err)?;
+        }
+    }
+    if !bases.is_empty() {
+        chart
+            .draw_series(
+                bases
+                    .iter()
+                    .map(|b| Circle::new((b[ax], b[ay]), 5, BLACK.filled())),
+            )
+            .map_err(err)?
+            .label("held base")
+            .legend(|(x, y)| Circle::new((x, y), 4, BLACK.filled()));
+    }
     legend(&mut chart, SeriesLabelPosition::UpperRight, 16, 0.8)?;
 
     // Colour bar: time of each centreline.
@@ -168,14 +180,25 @@ pub fn shapes_png(
     Ok(())
 }
 
-/// Kinetic, strain and total energy, external work and dissipated energy against time.
+/// Kinetic, strain and total energy, external work and dissipated energy of all rods together
+/// against time.
 pub fn energy_png(path: &Path, rec: &Recorder, title: &str) -> Result<()> {
     ensure_font();
     let t = &rec.time;
     if t.is_empty() {
         return Err(anyhow!("no recorded frames"));
     }
-    let s = &rec.series;
+    let s: Vec<[f64; 6]> = (0..t.len())
+        .map(|f| {
+            let mut row = [0.0; 6];
+            for rod in &rec.series {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v += rod[f][c];
+                }
+            }
+            row
+        })
+        .collect();
     let curves: [(&str, RGBColor, Vec<f64>); 5] = [
         (
             "kinetic K",
@@ -255,6 +278,83 @@ pub fn energy_png(path: &Path, rec: &Recorder, title: &str) -> Result<()> {
     legend(&mut chart, SeriesLabelPosition::UpperLeft, 16, 0.85)?;
     root.present().map_err(err)?;
     Ok(())
+}
+
+/// The command line's figures: for a controlled run the paper-style `shapes.png` and the
+/// animated `shapes.gif` of the controlled rod, for every run `energy.png`, and for a passive
+/// run the centrelines of every rod in `shapes.png`. A figure that cannot be drawn is a warning.
+pub struct CliFigures;
+
+impl crate::pipeline::Figures for CliFigures {
+    fn draw(
+        &self,
+        scn: &crate::scenario::Scenario,
+        data: &crate::pipeline::RunData,
+        out: &crate::output::OutputDir,
+        title: &str,
+    ) {
+        let rec = &data.trajectory;
+        let warn = |file: &str, r: Result<()>| {
+            if let Err(e) = r {
+                tracing::warn!("{}: {file} not written: {e:#}", scn.name);
+            }
+        };
+        match (&data.series, crate::build::task_schedule(&scn.config)) {
+            (Some(_), Some(task)) => {
+                let mut spheres: Vec<octoarm_control::SphereSpec> = task.obstacles.clone();
+                if let Some(g) = &task.grasp {
+                    spheres.push(g.object);
+                }
+                let spec = crate::paper_figures::ControlFigureSpec {
+                    name: scn.name.clone(),
+                    length: task.length,
+                    targets: task.targets.clone(),
+                    spheres,
+                    grasp: task.grasp.is_some(),
+                    frame_interval: scn.config.time.save_interval,
+                };
+                if !rec.control_frames.is_empty() {
+                    warn(
+                        "shapes.png",
+                        crate::paper_figures::shapes_png(
+                            &out.path("shapes.png"),
+                            &spec,
+                            &rec.control_frames,
+                            title,
+                        ),
+                    );
+                    warn(
+                        "shapes.gif",
+                        crate::paper_figures::shapes_gif(
+                            &out.path("shapes.gif"),
+                            &spec,
+                            &rec.control_frames,
+                        ),
+                    );
+                }
+            }
+            _ => {
+                let bases: Vec<[f64; 3]> = data
+                    .system
+                    .rods()
+                    .iter()
+                    .filter(|r| r.base.condition.holds_position())
+                    .map(|r| r.base.position)
+                    .collect();
+                warn(
+                    "shapes.png",
+                    shapes_png(
+                        &out.path("shapes.png"),
+                        rec,
+                        data.system.obstacles(),
+                        &bases,
+                        title,
+                    ),
+                );
+            }
+        }
+        warn("energy.png", energy_png(&out.path("energy.png"), rec, title));
+    }
 }
 
 #[cfg(test)]

@@ -1,23 +1,33 @@
-//! octoarm, the application: scenario files (`scenario`), the runner that turns a scenario into a
-//! simulation and steps it (`runner`), the recorder that streams frames (`recorder`), output files
-//! (`output`), figures (`figures`) and progress bars (`progress`); controlled runs (`controlled`)
-//! and the paper's experiments (`paper`, `paper_figures`, `gif`) on top of `octoarm-control`.
-//! The physics lives in `octoarm-physics`; this crate owns files, the command line's work and
-//! everything a user reads. The binary is a thin clap layer.
+//! octoarm, the application. Its library part (always built, used by the Python package):
+//! scenario files (`scenario`), scenario → system and controllers (`build`, `initial`), the one
+//! run pipeline (`pipeline`), its recorders (`recorder`, `series`, `acceptance`) and the output
+//! files (`output`). With the `cli` feature (default), the command line's parts: figures
+//! (`figures`, `paper_figures`, `gif`, `plot`), progress bars (`progress`) and `octoarm paper`
+//! (`paper`). The physics lives in `octoarm-physics`, the control in `octoarm-control`.
 
-pub mod controlled;
-pub mod figures;
-pub mod gif;
+pub mod acceptance;
+pub mod build;
+pub mod initial;
 pub mod output;
-pub mod paper;
-pub mod paper_figures;
-mod plot;
-pub mod progress;
+pub mod pipeline;
 pub mod recorder;
-pub mod runner;
 pub mod scenario;
+pub mod series;
 
-use scenario::{Scenario, ScenarioError};
+#[cfg(feature = "cli")]
+pub mod figures;
+#[cfg(feature = "cli")]
+pub mod gif;
+#[cfg(feature = "cli")]
+pub mod paper;
+#[cfg(feature = "cli")]
+pub mod paper_figures;
+#[cfg(feature = "cli")]
+mod plot;
+#[cfg(feature = "cli")]
+pub mod progress;
+
+use scenario::{fmt_vec, Scenario, ScenarioError};
 use std::path::PathBuf;
 
 /// The default output directory of a scenario: `results/<file stem>`.
@@ -36,29 +46,108 @@ pub fn override_duration(scn: &mut Scenario, duration: f64) -> Result<(), Scenar
     })
 }
 
-/// What `octoarm check` prints: the rod, its stable time step, the number of steps and frames,
-/// loads, obstacles and any advisories. Errors if the scenario cannot be built.
+/// Things worth changing in a valid scenario (time step against the stability limit, rounding,
+/// obstacles overlapping a rod at rest, deprecated keys), each saying what to change.
+pub fn advisories(
+    scn: &Scenario,
+    system: &octoarm_physics::RodSystem,
+    state: &octoarm_physics::SystemState,
+) -> Vec<String> {
+    let cfg = &scn.config;
+    let mut out = scn.notes.clone();
+    let (dt, limit) = (cfg.time.dt, system.stable_dt());
+    if dt > limit {
+        out.push(format!(
+            "time.dt = {dt:e} s exceeds this system's stable limit {limit:.3e} s: the run will become unstable; \
+             set dt ≤ {:.2e} s",
+            0.2 * limit
+        ));
+    } else if dt > 0.2 * limit {
+        out.push(format!(
+            "time.dt = {dt:e} s is above the recommended 0.2 × stable limit ({:.3e} s): fast tip modes are \
+             inaccurate; set dt ≤ {:.2e} s",
+            limit,
+            0.2 * limit
+        ));
+    }
+    // Whether `count` steps of dt miss `span` [s] by more than rounding.
+    let off_grid = |count: f64, span: f64| (count * dt - span).abs() > 1e-9 * span;
+    let steps = cfg.n_steps();
+    if off_grid(steps as f64, cfg.time.duration) {
+        out.push(format!(
+            "time.duration = {} s is not a multiple of dt = {dt:e} s: running {steps} steps, to t = {:.9} s",
+            cfg.time.duration,
+            steps as f64 * dt
+        ));
+    }
+    let every = cfg.save_every();
+    if off_grid(every as f64, cfg.time.save_interval) {
+        out.push(format!(
+            "time.save_interval = {} s is not a multiple of dt = {dt:e} s: recording every {every} steps ({:.9} s)",
+            cfg.time.save_interval,
+            every as f64 * dt
+        ));
+    }
+    for (i, o) in cfg.obstacles.iter().enumerate() {
+        let r = 0.5 * o.diameter;
+        let overlap = system.rods().iter().any(|rod| {
+            let nodes = rod.nodes();
+            (0..rod.n_elements()).any(|j| {
+                let (a, b) = (
+                    state.position.get(nodes.start + j),
+                    state.position.get(nodes.start + j + 1),
+                );
+                let mid = [
+                    0.5 * (a[0] + b[0]),
+                    0.5 * (a[1] + b[1]),
+                    0.5 * (a[2] + b[2]),
+                ];
+                let d = ((mid[0] - o.center[0]).powi(2)
+                    + (mid[1] - o.center[1]).powi(2)
+                    + (mid[2] - o.center[2]).powi(2))
+                .sqrt();
+                d < r + rod.model.radius[j]
+            })
+        });
+        if overlap {
+            out.push(format!(
+                "obstacle[{i}] (center {}, diameter {}) overlaps a rod at rest: the contact force will push \
+                 the rod out violently; move the obstacle",
+                fmt_vec(o.center),
+                o.diameter
+            ));
+        }
+    }
+    out
+}
+
+/// What `octoarm check` prints: the rods, the stable time step, the number of steps and frames,
+/// loads, obstacles, joints and any advisories. Errors if the scenario cannot be built.
 pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
     use std::fmt::Write;
-    let sim = runner::build_simulation(scn)?;
+    let (system, state) = build::build_system(scn)?;
     let cfg = &scn.config;
-    let r = &cfg.rod;
-    let m = &sim.model;
-    let stable = m.stable_dt();
+    let stable = system.stable_dt();
     let mut s = String::new();
     let _ = writeln!(s, "{}: valid scenario", scn.path.display());
     if let Some(d) = &cfg.description {
         let _ = writeln!(s, "  {d}");
     }
-    let _ = writeln!(
-        s,
-        "  rod: {} elements, length {} m, diameter {} m -> {} m, mass {:.4e} kg",
-        r.n_elements,
-        r.length,
-        r.base_diameter,
-        r.tip_diameter.unwrap_or(r.base_diameter),
-        m.total_mass()
-    );
+    for (r, rod) in cfg.rods.list.iter().zip(system.rods()) {
+        let _ = writeln!(
+            s,
+            "  rod {}: {} elements, length {} m, diameter {} m -> {} m, mass {:.4e} kg, base {} at {}, tip {}",
+            rod.name,
+            r.n_elements,
+            r.length,
+            r.base_diameter,
+            r.tip_diameter.unwrap_or(r.base_diameter),
+            rod.model.total_mass(),
+            rod.base.condition.name(),
+            fmt_vec(r.base_position),
+            rod.tip.condition.name(),
+        );
+    }
     let _ = writeln!(
         s,
         "  stable dt: {stable:.3e} s (recommended <= {:.3e} s); dt = {:e} s is {:.3} x stable dt",
@@ -68,38 +157,53 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
     );
     let _ = writeln!(
         s,
-        "  steps: {} (duration {} s); frames: {} (every {} steps = {} s)",
+        "  steps: {} (duration {} s from t = {} s); frames: {} (every {} steps = {} s)",
         cfg.n_steps(),
         cfg.time.duration,
+        state.time,
         cfg.n_frames(),
         cfg.save_every(),
         cfg.save_every() as f64 * cfg.time.dt
     );
-    let n = r.n_elements;
-    let bytes_per_frame = 8 * (3 * (n + 1) * 2 + 9 * n + 3 * n + 3 * (n - 1) + 7);
+    let per_frame: usize = cfg
+        .rods
+        .list
+        .iter()
+        .map(|r| {
+            let n = r.n_elements;
+            8 * (3 * (n + 1) * 2 + 9 * n + 3 * n + 3 * n + 3 * (n - 1) + 6)
+        })
+        .sum::<usize>()
+        + 8;
     let _ = writeln!(
         s,
         "  trajectory.npz: {:.1} MB before compression",
-        (bytes_per_frame as f64 * cfg.n_frames() as f64) / 1e6
+        (per_frame as f64 * cfg.n_frames() as f64) / 1e6
     );
     let _ = writeln!(
         s,
-        "  damping: rate = {} 1/s, gamma = {} kg/(m s)",
-        cfg.damping.rate, cfg.damping.gamma
+        "  damping: rate = {} 1/s, gamma = {} kg/(m s), protocol {:?}",
+        cfg.damping.rate, cfg.damping.gamma, cfg.damping.protocol
     );
     if cfg.loads.is_empty() {
         let _ = writeln!(s, "  loads: none");
     }
     for l in &cfg.loads {
-        let ramp = match l.ramp_time {
-            Some(t) if t > 0.0 => format!(", ramped over {t} s"),
+        let sched = match (&l.schedule, l.ramp_time) {
+            (Some(sc), _) => format!(", schedule {:?}", sc.kind).to_lowercase(),
+            (None, Some(t)) if t > 0.0 => format!(", ramped over {t} s"),
             _ => String::new(),
         };
+        let on = l
+            .rod
+            .as_deref()
+            .map(|r| format!(" on rod {r}"))
+            .unwrap_or_default();
         let _ = writeln!(
             s,
-            "  load: {} {} {}{ramp}",
+            "  load: {} {} {}{on}{sched}",
             l.kind.name(),
-            scenario::fmt_vec(l.value),
+            fmt_vec(l.value),
             l.kind.unit()
         );
     }
@@ -107,11 +211,22 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
         let _ = writeln!(
             s,
             "  obstacle: sphere, center {} m, diameter {} m",
-            scenario::fmt_vec(o.center),
+            fmt_vec(o.center),
             o.diameter
         );
     }
-    for w in runner::advisories(scn, &sim) {
+    for j in &cfg.joints {
+        let _ = writeln!(s, "  joint: {:?} {} -- {}", j.kind, j.first, j.second);
+    }
+    if let Some(c) = &cfg.controller {
+        let _ = writeln!(
+            s,
+            "  controller: {:?} on rod {}",
+            c.kind,
+            c.rod.as_deref().unwrap_or("?")
+        );
+    }
+    for w in advisories(scn, &system, &state) {
         let _ = writeln!(s, "  warning: {w}");
     }
     Ok(s)

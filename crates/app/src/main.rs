@@ -4,20 +4,22 @@
 
 use anyhow::Result;
 use clap::{ArgAction, Parser, Subcommand};
+use octoarm::figures::CliFigures;
 use octoarm::output::{OutputDir, OutputError};
+use octoarm::paper;
+use octoarm::pipeline::{self, RunOptions};
 use octoarm::progress::Progress;
-use octoarm::runner::{self, RunOptions};
 use octoarm::scenario::{Scenario, ScenarioError};
-use octoarm::{controlled, paper};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// Simulate a soft octopus arm (a discrete 3D Cosserat rod) described by a TOML scenario.
 ///
-/// A scenario has the sections [rod], [time], and optionally [damping], [numerics], [contact],
-/// [[load]] and [[obstacle]]; a controlled run adds [controller], [solver], [[target]],
-/// [via_path] or [grasp]. See the files in scenarios/ and the README.
+/// A scenario has the sections [rod] (or [[rod]] for several rods), [time], and optionally
+/// [damping], [numerics], [contact], [[load]], [[obstacle]], [[joint]] and [initial_state]; a
+/// controlled run adds [controller], [solver], [[target]], [via_path] or [grasp], and
+/// [[acceptance]]. See the files in scenarios/ and the README.
 #[derive(Debug, Parser)]
 #[command(name = "octoarm", version, propagate_version = true)]
 #[command(
@@ -38,7 +40,8 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Run a scenario and write trajectory.npz, summary.json, scenario.toml, shapes.png and
-    /// energy.png into the output directory.
+    /// energy.png (a controlled run adds series.npz, distance.csv and shapes.gif) into the
+    /// output directory.
     ///
     /// The directory is written under a temporary name and moved into place at the end, so an
     /// earlier output is replaced whole or not at all. If the rod becomes unstable, the frames
@@ -55,8 +58,9 @@ enum Command {
     },
     /// Run the paper's four experiments (scenarios/paper/*.toml, compiled in) in parallel and
     /// write, into OUT, one folder per experiment (two-targets/, moving-target/, obstacles/,
-    /// grasp/: trajectory.npz, series.npz, distance.csv, shapes.png, shapes.gif, summary.json,
-    /// scenario.toml) as each completes, then distance.png and report.md.
+    /// grasp/: trajectory.npz, series.npz, distance.csv, shapes.png, shapes.gif, energy.png,
+    /// summary.json, scenario.toml) as each completes, then distance.png and report.md with
+    /// the acceptance checks each scenario file declares.
     ///
     /// If an experiment fails, the others' outputs are still written and the exit code is 1.
     Paper {
@@ -70,6 +74,9 @@ enum Command {
         /// Worker threads [default: the number of cores, at most 4].
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
+        /// Run the scenarios of this folder instead of the paper's (every *.toml, by name).
+        #[arg(long, value_name = "DIR")]
+        scenarios: Option<PathBuf>,
     },
     /// Validate a scenario without running it; print the rod's stable time step, the number of
     /// steps and frames, and any warnings.
@@ -150,10 +157,11 @@ fn run(cli: Cli) -> Result<()> {
             out,
             duration,
             threads,
+            scenarios,
         } => {
-            let scenarios = paper::paper_scenarios(duration)?;
+            let scenarios = paper::paper_scenarios(duration, scenarios.as_deref())?;
             for scn in &scenarios {
-                runner::build_simulation(scn)?;
+                octoarm::build::build_system(scn)?;
             }
             paper::prepare_root(&out)?;
             let threads = threads.unwrap_or_else(paper::default_threads);
@@ -170,8 +178,9 @@ fn run(cli: Cli) -> Result<()> {
             }
             if !cli.quiet {
                 println!(
-                    "wrote {} (4 experiments, distance.png, report.md) in {:.1} s",
+                    "wrote {} ({} experiments, distance.png, report.md) in {:.1} s",
                     out.display(),
+                    report.results.len(),
                     report.wall_seconds
                 );
             }
@@ -183,46 +192,23 @@ fn run(cli: Cli) -> Result<()> {
             duration,
         } => {
             let scn = load(&scenario, duration)?;
-            // Everything about the input is checked, and the output directory created, before
-            // the first step.
-            runner::build_simulation(&scn)?;
+            // Everything about the input is checked (offline designs solved), and the output
+            // directory created, before the first step.
+            let prepared = pipeline::prepare(&scn)?;
+            for warning in octoarm::advisories(&scn, &prepared.system, &prepared.state) {
+                tracing::warn!("{warning}");
+            }
             let target = out.unwrap_or_else(|| octoarm::default_out_dir(&scn));
             let out = OutputDir::prepare(&target)?;
-            if let Some(spec) = controlled::experiment_spec(&scn) {
-                let bar =
-                    Progress::new(show_progress(cli.quiet)).bar(controlled::total_steps(&spec), "");
-                let run = controlled::run(&scn, &spec, out, true, bar)?;
-                if let Some(failure) = run.failure {
-                    return Err(RunFailed {
-                        message: format!(
-                            "{failure}\n  wrote the {} frames recorded before the failure to {} (see summary.json)",
-                            run.frames,
-                            run.out_dir.display()
-                        ),
-                    }
-                    .into());
-                }
-                if !cli.quiet {
-                    let o = run
-                        .outcome
-                        .as_ref()
-                        .expect("a completed run has an outcome");
-                    println!(
-                        "wrote {} ({} frames, final distance {:.2e} L0, {:.1} s wall)",
-                        run.out_dir.display(),
-                        run.frames,
-                        o.summary.final_distance,
-                        run.wall_seconds
-                    );
-                }
-                return Ok(());
-            }
+            let bar = Progress::new(show_progress(cli.quiet)).bar(pipeline::planned_steps(&scn), "");
+            let update = |k: u64, t: f64| bar.update(k, t);
             let opts = RunOptions {
-                progress: show_progress(cli.quiet),
-                no_figures: false,
+                progress: Some(&update),
+                figures: Some(&CliFigures),
             };
-            let report = runner::run(&scn, out, opts)?;
-            if let Some(failure) = report.failure {
+            let report = pipeline::run(&scn, prepared, out, &opts)?;
+            bar.finish();
+            if let Some(failure) = &report.failure {
                 return Err(RunFailed {
                     message: format!(
                         "{failure}\n  wrote the {} frames recorded before the failure to {} (see summary.json)",
@@ -233,8 +219,15 @@ fn run(cli: Cli) -> Result<()> {
                 .into());
             }
             if !cli.quiet {
+                let distance = report
+                    .data
+                    .series
+                    .as_ref()
+                    .and_then(|s| s.summary.as_ref())
+                    .map(|s| format!(", final distance {:.2e} L0", s.final_distance))
+                    .unwrap_or_default();
                 println!(
-                    "wrote {} ({} frames, {} steps, {:.1} s wall, {:.2} µs per step)",
+                    "wrote {} ({} frames, {} steps{distance}, {:.1} s wall, {:.2} µs per step)",
                     report.out_dir.display(),
                     report.frames,
                     report.steps,

@@ -231,7 +231,8 @@ impl SpooledArray {
         members
             .into_iter()
             .map(|(name, shape)| {
-                Self::create(dir.join(format!(".{name}.spool")), name, &shape, planned)
+                let file = format!(".{}.spool", name.replace('/', "__"));
+                Self::create(dir.join(file), name, &shape, planned)
             })
             .collect()
     }
@@ -323,6 +324,105 @@ pub fn write_member<W: Write + Seek>(
     }
     npz.write_all(&bytes)?;
     Ok(())
+}
+
+/// An array member of an `.npz` file as its shape (little-endian f64, C order).
+fn read_npy_header<R: Read>(r: &mut R, name: &str) -> Result<Vec<usize>> {
+    let mut magic = [0u8; 10];
+    r.read_exact(&mut magic)
+        .with_context(|| format!("{name}: not an .npy array"))?;
+    if &magic[..6] != b"\x93NUMPY" {
+        bail!("{name}: not an .npy array");
+    }
+    let len = match magic[6] {
+        1 => u16::from_le_bytes([magic[8], magic[9]]) as usize,
+        2 | 3 => {
+            let mut more = [0u8; 2];
+            r.read_exact(&mut more)?;
+            u32::from_le_bytes([magic[8], magic[9], more[0], more[1]]) as usize
+        }
+        v => bail!("{name}: unsupported .npy version {v}"),
+    };
+    let mut dict = vec![0u8; len];
+    r.read_exact(&mut dict)?;
+    let dict = String::from_utf8_lossy(&dict);
+    if !dict.contains("'descr': '<f8'") || !dict.contains("'fortran_order': False") {
+        bail!("{name}: expected a little-endian float64 C-order array, header {dict}");
+    }
+    let shape = dict
+        .split("'shape': (")
+        .nth(1)
+        .and_then(|t| t.split(')').next())
+        .ok_or_else(|| anyhow::anyhow!("{name}: no shape in the header {dict}"))?;
+    shape
+        .split(',')
+        .map(str::trim)
+        .filter(|d| !d.is_empty())
+        .map(|d| {
+            d.parse::<usize>()
+                .with_context(|| format!("{name}: bad shape {shape}"))
+        })
+        .collect()
+}
+
+/// Names of the members of an `.npz` file (without `.npy`).
+pub fn npz_names(path: &Path) -> Result<Vec<String>> {
+    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let zip = ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))?;
+    Ok(zip
+        .file_names()
+        .map(|n| n.trim_end_matches(".npy").to_string())
+        .collect())
+}
+
+/// The shape of member `name` and the values of its entry `index` along the first axis (a
+/// frame). Reads the member up to that frame only.
+pub fn read_npz_frame(path: &Path, name: &str, index: usize) -> Result<(Vec<usize>, Vec<f64>)> {
+    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let mut zip =
+        ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))?;
+    let mut member = zip
+        .by_name(&format!("{name}.npy"))
+        .with_context(|| format!("{}: has no array `{name}`", path.display()))?;
+    let shape = read_npy_header(&mut member, name)?;
+    let Some((&frames, rest)) = shape.split_first() else {
+        bail!("{name}: a scalar, expected an array over frames");
+    };
+    if index >= frames {
+        bail!("{name}: frame {index} requested, the array has {frames}");
+    }
+    let per: usize = rest.iter().product();
+    io::copy(&mut member.by_ref().take((index * per * 8) as u64), &mut io::sink())?;
+    let mut bytes = vec![0u8; per * 8];
+    member.read_exact(&mut bytes)?;
+    let values = bytes
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect();
+    Ok((shape, values))
+}
+
+/// A whole 1-D member of an `.npz` file.
+pub fn read_npz_vector(path: &Path, name: &str) -> Result<Vec<f64>> {
+    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let mut zip =
+        ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))?;
+    let mut member = zip
+        .by_name(&format!("{name}.npy"))
+        .with_context(|| format!("{}: has no array `{name}`", path.display()))?;
+    let shape = read_npy_header(&mut member, name)?;
+    if shape.len() != 1 {
+        bail!("{name}: shape {shape:?}, expected one axis");
+    }
+    let mut bytes = Vec::new();
+    member.read_to_end(&mut bytes)?;
+    if bytes.len() != shape[0] * 8 {
+        bail!("{name}: {} bytes of data for {} values", bytes.len(), shape[0]);
+    }
+    Ok(bytes
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect())
 }
 
 /// Write `value` as pretty JSON to `path`.

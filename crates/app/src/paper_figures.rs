@@ -9,24 +9,30 @@ use crate::plot::{
     Chart,
 };
 use anyhow::{anyhow, Result};
-use octoarm_control::{ExperimentSpec, SphereSpec};
+use octoarm_control::{SphereSpec, TargetPhase};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
-/// One recorded shape frame, kept for the figures.
+pub use crate::recorder::ControlFrame as FigureFrame;
+
+/// What the control figures need to know about a controlled run.
 #[derive(Debug, Clone)]
-pub struct FigureFrame {
-    /// Time [s].
-    pub time: f64,
-    /// Centreline [m], n + 1 nodes.
-    pub position: Vec<[f64; 3]>,
-    /// Desired shape (forward map of the design in force) [m], n + 1 nodes.
-    pub desired: Vec<[f64; 3]>,
-    /// Task target in force [m] (None for a grasp).
-    pub target: Option<[f64; 3]>,
+pub struct ControlFigureSpec {
+    /// Name (the scenario's file stem), shown in the GIF.
+    pub name: String,
+    /// Arm length L0 [m], the axes' unit.
+    pub length: f64,
+    /// Task targets (segments).
+    pub targets: Vec<TargetPhase>,
+    /// Spheres drawn (obstacles and the grasped object).
+    pub spheres: Vec<SphereSpec>,
+    /// Whether it is a grasp (no tip targets).
+    pub grasp: bool,
+    /// Time between frames [s].
+    pub frame_interval: f64,
 }
 
 /// Green of the desired shape.
@@ -49,7 +55,7 @@ pub fn purple(u: f64) -> RGBColor {
 
 /// Start times of the segments of constant task target (one segment for a grasp or a single
 /// target).
-fn segment_starts(spec: &ExperimentSpec) -> Vec<f64> {
+fn segment_starts(spec: &ControlFigureSpec) -> Vec<f64> {
     let mut s: Vec<f64> = spec.targets.iter().map(|t| t.from.max(0.0)).collect();
     if s.is_empty() {
         s.push(0.0);
@@ -59,14 +65,14 @@ fn segment_starts(spec: &ExperimentSpec) -> Vec<f64> {
 }
 
 /// Whether the task target moves (experiment B).
-fn moving_target(spec: &ExperimentSpec) -> bool {
+fn moving_target(spec: &ControlFigureSpec) -> bool {
     spec.targets.iter().any(|t| t.velocity != [0.0; 3])
 }
 
 /// Frames drawn in `shapes.png`: 8 evenly spaced over the run, split evenly between the
 /// segments (A: 4 per segment), each segment's first and last frame included. Returns, per
 /// segment, the frame indices.
-pub fn picked_frames(spec: &ExperimentSpec, frames: &[FigureFrame]) -> Vec<Vec<usize>> {
+pub fn picked_frames(spec: &ControlFigureSpec, frames: &[FigureFrame]) -> Vec<Vec<usize>> {
     let starts = segment_starts(spec);
     let per = (8 / starts.len()).max(2);
     let mut out = Vec::new();
@@ -192,7 +198,7 @@ fn draw_base(chart: &mut Chart) -> Result<()> {
 /// `shapes.png` in the style of the paper's Fig. 3 (control spec §5.6).
 pub fn shapes_png(
     path: &Path,
-    spec: &ExperimentSpec,
+    spec: &ControlFigureSpec,
     frames: &[FigureFrame],
     title: &str,
 ) -> Result<()> {
@@ -200,8 +206,8 @@ pub fn shapes_png(
     if frames.is_empty() {
         return Err(anyhow!("no recorded frames"));
     }
-    let length = spec.arm.length;
-    let spheres = spec.spheres();
+    let length = spec.length;
+    let spheres = spec.spheres.clone();
     let segments = picked_frames(spec, frames);
     let picks: Vec<usize> = segments.iter().flatten().copied().collect();
     let moving = moving_target(spec);
@@ -325,7 +331,7 @@ pub fn shapes_png(
     if !spheres.is_empty() {
         side.draw(&Circle::new((30, y + 10), 10, OBSTACLE.filled()))
             .map_err(err)?;
-        let label = if spec.grasp.is_some() {
+        let label = if spec.grasp {
             "object"
         } else {
             "obstacle"
@@ -341,14 +347,14 @@ pub fn shapes_png(
 #[allow(clippy::too_many_arguments)]
 fn gif_frame(
     area: &DrawingArea<BitMapBackend, Shift>,
-    spec: &ExperimentSpec,
+    spec: &ControlFigureSpec,
     frame: &FigureFrame,
     range: (f64, f64, f64, f64),
     margin: u32,
     xlab: u32,
     ylab: u32,
 ) -> Result<()> {
-    let length = spec.arm.length;
+    let length = spec.length;
     area.fill(&WHITE).map_err(err)?;
     let (x0, x1, y0, y1) = range;
     let mut chart = ChartBuilder::on(area)
@@ -368,7 +374,7 @@ fn gif_frame(
         .bold_line_style(BLACK.mix(0.1))
         .draw()
         .map_err(err)?;
-    draw_spheres(&mut chart, &spec.spheres(), length)?;
+    draw_spheres(&mut chart, &spec.spheres, length)?;
     let (pw, _) = chart.plotting_area().dim_in_pixel();
     let per_px = (x1 - x0) / pw as f64;
     thick_path(
@@ -394,12 +400,12 @@ fn gif_frame(
 
 /// `shapes.gif`: every k-th frame (at most ~100 frames, played in real time), arm in purple,
 /// desired shape in green, target, obstacles; fixed axes in units of L0.
-pub fn shapes_gif(path: &Path, spec: &ExperimentSpec, frames: &[FigureFrame]) -> Result<()> {
+pub fn shapes_gif(path: &Path, spec: &ControlFigureSpec, frames: &[FigureFrame]) -> Result<()> {
     ensure_font();
     if frames.is_empty() {
         return Err(anyhow!("no recorded frames"));
     }
-    let length = spec.arm.length;
+    let length = spec.length;
     let stride = frames.len().div_ceil(100).max(1);
     let shown: Vec<&FigureFrame> = frames
         .iter()
@@ -413,7 +419,7 @@ pub fn shapes_gif(path: &Path, spec: &ExperimentSpec, frames: &[FigureFrame]) ->
             .chain(f.desired.iter())
             .chain(f.target.iter())
     });
-    let (mut lo, hi) = bounds(points, &spec.spheres(), length);
+    let (mut lo, hi) = bounds(points, &spec.spheres, length);
     lo[0] = lo[0].min(-0.05);
     let (w, h) = (560u32, 440u32);
     let (margin, xlab, ylab) = (10u32, 45u32, 55u32);
@@ -460,14 +466,14 @@ pub struct DistanceCurve<'a> {
     pub points: &'a [(f64, f64)],
 }
 
-/// Colour of each paper experiment in `distance.png`: A orange (the paper's), B blue, C green,
-/// D purple.
-pub fn experiment_colour(name: &str) -> RGBColor {
-    match name {
-        "two-targets" => RGBColor(245, 130, 20),
-        "moving-target" => RGBColor(31, 100, 200),
-        "obstacles" => RGBColor(40, 160, 60),
-        "grasp" => RGBColor(130, 50, 170),
+/// Colour of the i-th curve of `distance.png`: orange (the paper's A), blue, green, purple,
+/// then black.
+pub fn experiment_colour(i: usize) -> RGBColor {
+    match i {
+        0 => RGBColor(245, 130, 20),
+        1 => RGBColor(31, 100, 200),
+        2 => RGBColor(40, 160, 60),
+        3 => RGBColor(130, 50, 170),
         _ => BLACK,
     }
 }
@@ -485,9 +491,13 @@ fn thin(points: &[(f64, f64)], max: usize) -> impl Iterator<Item = (f64, f64)> +
 }
 
 /// `distance.png` in the style of the paper's Fig. 4: distance / L0 against time for every run,
-/// linear axes, with the target switch of A marked at `switch` [s]; a second, logarithmic panel
-/// below shows the tails (B's tracking lag, the final distances).
-pub fn distance_png(path: &Path, curves: &[DistanceCurve], switch: Option<f64>) -> Result<()> {
+/// linear axes, with a target switch marked at `switch` (label, time [s]); a second,
+/// logarithmic panel below shows the tails (B's tracking lag, the final distances).
+pub fn distance_png(
+    path: &Path,
+    curves: &[DistanceCurve],
+    switch: Option<(String, f64)>,
+) -> Result<()> {
     ensure_font();
     let t_end = curves
         .iter()
@@ -518,7 +528,7 @@ pub fn distance_png(path: &Path, curves: &[DistanceCurve], switch: Option<f64>) 
         .y_label_formatter(&|v| format!("{v:.1}"))
         .draw()
         .map_err(err)?;
-    if let Some(ts) = switch.filter(|&t| t < t_end) {
+    if let Some((who, ts)) = switch.filter(|s| s.1 < t_end) {
         chart
             .draw_series(std::iter::once(PathElement::new(
                 vec![(ts, 0.0), (ts, 1.08 * d_max)],
@@ -527,7 +537,7 @@ pub fn distance_png(path: &Path, curves: &[DistanceCurve], switch: Option<f64>) 
             .map_err(err)?;
         chart
             .draw_series(std::iter::once(Text::new(
-                format!("A: target switch at {ts} s"),
+                format!("{who}: target switch at {ts} s"),
                 // Left of the line, above the curves (A peaks just after the switch).
                 ((ts - 0.22 * t_end).max(0.0), 1.0 * d_max),
                 ("sans-serif", 18).into_font(),

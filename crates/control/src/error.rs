@@ -26,7 +26,7 @@ pub enum StaticsError {
         frame: [[f64; 3]; 3],
     },
     /// The model has a free base; the statics needs a clamped base.
-    #[error("the strain-space statics needs a clamped base (Boundary::ClampedBase)")]
+    #[error("the strain-space statics needs a rod clamped at its base and free at its tip")]
     FreeBase,
 }
 

@@ -1,8 +1,9 @@
 //! octoarm-control: the strain-space statics of the CyberOctopus arm, its task costs (tip target,
-//! sphere obstacles, grasp), the forward–backward sweep with its update rules (offline and online)
-//! and the energy-shaping law that turns a designed strain field into loads on the simulated rod
-//! (`docs/control-algorithms.md`; Chang et al., CDC 2020). It uses the physics crate only through
-//! its public interface; the simulator knows nothing of control.
+//! sphere obstacles, grasp), the forward–backward sweep with its update rules (offline and online),
+//! the energy-shaping law that turns a designed strain field into actuation of the simulated rod
+//! (`docs/control-algorithms.md`; Chang et al., CDC 2020), and controllers behind one trait
+//! (`Controller`) that the application's run pipeline updates. It uses the physics crate only
+//! through its public interface; it knows no experiments, files or recording.
 //!
 //! Index conventions follow the physics crate: `element` j = 0..n−1, `node` i = 0..n, `interior`
 //! (Voronoi) point k = 0..n−2 between elements k and k + 1, i.e. at node k + 1. The control
@@ -21,8 +22,8 @@
 // Component loops `for c in 0..3` index several arrays at once, as the equations do.
 #![allow(clippy::needless_range_loop)]
 
+pub mod controller;
 pub mod error;
-pub mod experiments;
 pub mod shaping;
 pub mod solver;
 pub mod statics;
@@ -30,12 +31,11 @@ pub mod strains;
 pub mod task;
 
 pub use error::{ShapingError, SolveError, StaticsError, TaskError};
-pub use experiments::{
-    run_experiment, ExperimentError, ExperimentOutcome, ExperimentSink, ExperimentSpec, Frame,
-    FrameCollector, GraspSpec, NoFrames, Sample, SegmentSummary, SolverMode, SphereSpec, Summary,
-    TargetPhase,
+pub use controller::{
+    ControlError, ControlReport, Controller, DesignMode, GraspSpec, ShapingController,
+    ShapingControllerConfig, Signals, SphereSpec, TargetPhase, TaskSchedule,
 };
-pub use shaping::{EnergyShapingController, LawEvaluation, ShapingConfig};
+pub use shaping::{EnergyShapingController, ShapingConfig};
 pub use solver::{
     OfflineSolver, OnlineConfig, OnlineReport, OnlineSolver, Outcome, Solution, SolveReport,
     SolverConfig, StopReason, UpdateRule, Warning,

@@ -7,7 +7,7 @@ use crate::error::StaticsError;
 use crate::strains::{StrainField, StrainSpace};
 use crate::task::{Task, TipTerm};
 use octoarm_physics::math::{cross, dot, mat_mul, mat_t_vec, mat_vec, norm, rodrigues, sub};
-use octoarm_physics::{Boundary, Mat3, RodModel, RodState, Vec3};
+use octoarm_physics::{Mat3, RodModel, RodState, Vec3};
 use std::f64::consts::PI;
 
 /// The cost of one strain field, split into its terms [J].
@@ -95,9 +95,6 @@ impl Statics {
                 value: floor_diameter,
                 range: "[0, inf)",
             });
-        }
-        if model.boundary != Boundary::ClampedBase {
-            return Err(StaticsError::FreeBase);
         }
         Self::with_base(
             model,

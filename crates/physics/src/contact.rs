@@ -6,7 +6,7 @@ use crate::error::{finite_vec, non_negative, positive, ModelError};
 use crate::loads::ExternalLoads;
 use crate::math::{dot, norm, scale, sub, Vec3};
 use crate::model::RodModel;
-use crate::state::RodState;
+use crate::state::RodAccess;
 
 /// A rigid sphere, fixed or moving with a prescribed velocity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,9 +82,15 @@ struct Hit {
 }
 
 #[inline]
-fn element_hit(model: &RodModel, s: &RodState, j: usize, c: Vec3, radius: f64) -> Option<Hit> {
-    let xa = s.position[j];
-    let dx = sub(s.position[j + 1], xa);
+fn element_hit(
+    model: &RodModel,
+    s: &impl RodAccess,
+    j: usize,
+    c: Vec3,
+    radius: f64,
+) -> Option<Hit> {
+    let xa = s.position(j);
+    let dx = sub(s.position(j + 1), xa);
     let l2 = dot(dx, dx);
     let l = l2.sqrt();
     let r = model.radius[j] / (l / model.rest_length[j]).sqrt();
@@ -111,13 +117,15 @@ fn element_hit(model: &RodModel, s: &RodState, j: usize, c: Vec3, radius: f64) -
     })
 }
 
-/// Add the contact forces of every sphere on the rod to `out` (state at time t).
-pub fn add_contact_forces(
+/// Add the contact forces of every sphere on the rod `s` (nodes from `first_node` in `out`) at
+/// time t.
+pub(crate) fn add_contact_forces(
     model: &RodModel,
-    s: &RodState,
+    s: &impl RodAccess,
     spheres: &[Sphere],
     params: &ContactParams,
     t: f64,
+    first_node: usize,
     out: &mut ExternalLoads,
 ) {
     let e_mod = model.material.youngs_modulus;
@@ -129,7 +137,7 @@ pub fn add_contact_forces(
             };
             let k = params.beta * e_mod * model.area[j] / model.rest_length[j];
             let damping = 2.0 * params.zeta * (k * model.element_mass[j]).sqrt();
-            let (va, vb) = (s.velocity[j], s.velocity[j + 1]);
+            let (va, vb) = (s.velocity(j), s.velocity(j + 1));
             let vrel = [
                 (1.0 - hit.u) * va[0] + hit.u * vb[0] - sphere.velocity[0],
                 (1.0 - hit.u) * va[1] + hit.u * vb[1] - sphere.velocity[1],
@@ -137,24 +145,31 @@ pub fn add_contact_forces(
             ];
             let vn = dot(vrel, hit.normal);
             let fnorm = (k * hit.penetration - damping * vn).max(0.0);
-            for c in 0..3 {
-                out.force[j][c] += (1.0 - hit.u) * fnorm * hit.normal[c];
-                out.force[j + 1][c] += hit.u * fnorm * hit.normal[c];
-            }
+            let (wa, wb) = ((1.0 - hit.u) * fnorm, hit.u * fnorm);
+            out.force.add(
+                first_node + j,
+                [wa * hit.normal[0], wa * hit.normal[1], wa * hit.normal[2]],
+            );
+            out.force.add(
+                first_node + j + 1,
+                [wb * hit.normal[0], wb * hit.normal[1], wb * hit.normal[2]],
+            );
         }
     }
 }
 
-/// Elastic energy stored in the penalty springs, Σ ½ k g² [J] (for Lyapunov and energy checks).
+/// Elastic energy stored in the penalty springs, Σ ½ k g² [J], with the spheres where they are at
+/// time t (for Lyapunov and energy checks).
 pub fn contact_energy(
     model: &RodModel,
-    s: &RodState,
+    s: &impl RodAccess,
     spheres: &[Sphere],
     params: &ContactParams,
+    t: f64,
 ) -> f64 {
     let mut energy = 0.0;
     for sphere in spheres {
-        let c = sphere.center_at(s.time);
+        let c = sphere.center_at(t);
         for j in 0..model.n_elements {
             if let Some(hit) = element_hit(model, s, j, c, sphere.radius) {
                 let k = params.beta * model.material.youngs_modulus * model.area[j]
@@ -166,12 +181,17 @@ pub fn contact_energy(
     energy
 }
 
-/// Largest penetration of the rod's surface into any sphere [m] (0 when there is no contact),
-/// and the element where it occurs.
-pub fn max_penetration(model: &RodModel, s: &RodState, spheres: &[Sphere]) -> (f64, usize) {
+/// Largest penetration of the rod's surface into any sphere at time t [m] (0 when there is no
+/// contact), and the element where it occurs.
+pub fn max_penetration(
+    model: &RodModel,
+    s: &impl RodAccess,
+    spheres: &[Sphere],
+    t: f64,
+) -> (f64, usize) {
     let mut worst = (0.0, 0);
     for sphere in spheres {
-        let c = sphere.center_at(s.time);
+        let c = sphere.center_at(t);
         for j in 0..model.n_elements {
             if let Some(hit) = element_hit(model, s, j, c, sphere.radius) {
                 if hit.penetration > worst.0 {

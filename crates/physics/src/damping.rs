@@ -1,6 +1,7 @@
-//! Viscous damping (spec §8): the rate-based module integrated exactly over the kick
-//! (`rate` = mass-proportional ν_d, `gamma` = the paper's per-length γ), and PyElastica's
-//! multiplicative "analytical linear damper" for cross-checks. The stepper calls into here.
+//! Viscous damping (spec §8) of one rod: the rate-based module integrated exactly over the kick
+//! (`rate` = mass-proportional ν_d, `gamma` = the paper's per-length γ; octoarm's default
+//! protocol), and PyElastica's multiplicative "analytical linear damper" applied after the kick
+//! (its protocol, for reproducing PyElastica runs). The stepper calls into here.
 
 use crate::error::{non_negative, ModelError};
 use crate::model::RodModel;
@@ -98,10 +99,12 @@ pub(crate) fn phi1(z: f64) -> f64 {
     }
 }
 
-/// Precomputed exponential-kick factors (spec eq. 8.3): v ← decay v + kick a.
+/// Precomputed exponential-kick factors (spec eq. 8.3), v ← decay v + kick a, for every node and
+/// element of a system (system order), refreshed per rod when dt or its damping changes.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct KickFactors {
-    pub key: (f64, f64, f64),
+    /// Per rod: (dt, rate, gamma) the rod's factors were computed for.
+    pub keys: Vec<(f64, f64, f64)>,
     pub node_decay: Vec<f64>,
     pub node_kick: Vec<f64>,
     pub node_rate: Vec<f64>,
@@ -114,66 +117,71 @@ pub(crate) struct KickFactors {
 }
 
 impl KickFactors {
-    /// Recompute when dt or the damping coefficients changed.
-    pub fn refresh(&mut self, model: &RodModel, damping: &Damping, dt: f64) {
-        let key = (dt, damping.rate, damping.gamma);
-        if key == self.key && self.node_decay.len() == model.n_nodes() {
-            return;
+    /// Buffers for a system of `n_rods` rods, `n_nodes` nodes and `n_elements` elements; every
+    /// rod is computed on the first `refresh_rod`.
+    pub fn new(n_rods: usize, n_nodes: usize, n_elements: usize) -> Self {
+        Self {
+            keys: vec![(f64::NAN, f64::NAN, f64::NAN); n_rods],
+            node_decay: vec![0.0; n_nodes],
+            node_kick: vec![0.0; n_nodes],
+            node_rate: vec![0.0; n_nodes],
+            element_rate0: vec![0.0; n_elements],
+            element_decay0: vec![0.0; n_elements],
+            element_kick0: vec![0.0; n_elements],
+            element_gamma_rate: vec![0.0; n_elements],
         }
-        self.key = key;
-        let nn = model.n_nodes();
-        let ne = model.n_elements;
-        // Refill in place: after the first call (from `Simulation::new`) a change of damping or
-        // dt between steps reuses the buffers, so no step allocates.
-        let refill = |buf: &mut Vec<f64>, values: &mut dyn Iterator<Item = f64>| {
-            buf.clear();
-            buf.extend(values);
-        };
-        refill(
-            &mut self.node_rate,
-            &mut (0..nn).map(|i| damping.node_rate(model, i)),
-        );
-        refill(
-            &mut self.node_decay,
-            &mut self.node_rate.iter().map(|l| (-l * dt).exp()),
-        );
-        refill(
-            &mut self.node_kick,
-            &mut self.node_rate.iter().map(|l| dt * phi1(l * dt)),
-        );
-        refill(
-            &mut self.element_rate0,
-            &mut (0..ne).map(|j| damping.element_rate(model, j, 1.0)),
-        );
-        refill(
-            &mut self.element_decay0,
-            &mut self.element_rate0.iter().map(|l| (-l * dt).exp()),
-        );
-        refill(
-            &mut self.element_kick0,
-            &mut self.element_rate0.iter().map(|l| dt * phi1(l * dt)),
-        );
-        refill(
-            &mut self.element_gamma_rate,
-            &mut (0..ne).map(|j| damping.gamma / (model.material.density * model.area[j])),
-        );
     }
 
-    /// Decay and kick factors of element j at dilatation e, and its rate.
+    /// Recompute rod `r`'s factors (nodes from `first_node`, elements from `first_element`) when
+    /// dt or its damping coefficients changed. Writes in place: no allocation.
+    pub fn refresh_rod(
+        &mut self,
+        r: usize,
+        model: &RodModel,
+        damping: &Damping,
+        dt: f64,
+        first_node: usize,
+        first_element: usize,
+    ) {
+        let key = (dt, damping.rate, damping.gamma);
+        if key == self.keys[r] {
+            return;
+        }
+        self.keys[r] = key;
+        let nn = model.n_nodes();
+        let ne = model.n_elements;
+        for i in 0..nn {
+            let l = damping.node_rate(model, i);
+            let k = first_node + i;
+            self.node_rate[k] = l;
+            self.node_decay[k] = (-l * dt).exp();
+            self.node_kick[k] = dt * phi1(l * dt);
+        }
+        for j in 0..ne {
+            let l = damping.element_rate(model, j, 1.0);
+            let k = first_element + j;
+            self.element_rate0[k] = l;
+            self.element_decay0[k] = (-l * dt).exp();
+            self.element_kick0[k] = dt * phi1(l * dt);
+            self.element_gamma_rate[k] = damping.gamma / (model.material.density * model.area[j]);
+        }
+    }
+
+    /// Decay and kick factors of element k (system index) at dilatation e, and its rate.
     #[inline(always)]
-    pub fn element(&self, j: usize, e: f64, dt: f64, gamma_active: bool) -> (f64, f64, f64) {
+    pub fn element(&self, k: usize, e: f64, dt: f64, gamma_active: bool) -> (f64, f64, f64) {
         if !gamma_active {
             return (
-                self.element_decay0[j],
-                self.element_kick0[j],
-                self.element_rate0[j],
+                self.element_decay0[k],
+                self.element_kick0[k],
+                self.element_rate0[k],
             );
         }
-        let lam0 = self.element_rate0[j];
-        let lam = lam0 + (e - 1.0) * self.element_gamma_rate[j];
+        let lam0 = self.element_rate0[k];
+        let lam = lam0 + (e - 1.0) * self.element_gamma_rate[k];
         let decay = if lam0 * dt < 1e-2 {
             // First-order correction of the precomputed factor (spec §8a).
-            self.element_decay0[j] * (1.0 - (lam - lam0) * dt)
+            self.element_decay0[k] * (1.0 - (lam - lam0) * dt)
         } else {
             (-lam * dt).exp()
         };

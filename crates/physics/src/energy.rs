@@ -1,10 +1,11 @@
 //! Energies of a rod state (spec §12): translational and rotational kinetic energy and the
 //! stretch/shear and bend/twist strain energies, for the default model or the dilatation-scaled
-//! energy-consistent variant. Pure functions of model and state; no allocation.
+//! energy-consistent variant. Pure functions of a model and one rod's state (a system's view or a
+//! lone `RodState`); no allocation.
 
 use crate::math::{dot, log_relative, mat_vec, Vec3};
 use crate::model::RodModel;
-use crate::state::RodState;
+use crate::state::RodAccess;
 
 /// The energies of one state [J].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -40,7 +41,7 @@ impl Energies {
 /// energies carry the factors 1/e and 1/ε³ (eq. 12.2 with p = 1, q = 3).
 pub fn energies_with_rest(
     model: &RodModel,
-    s: &RodState,
+    s: &impl RodAccess,
     rest_sigma: &[Vec3],
     rest_kappa: &[Vec3],
     energy_consistent: bool,
@@ -48,22 +49,20 @@ pub fn energies_with_rest(
     let n = model.n_elements;
     let mut out = Energies::default();
     for i in 0..=n {
-        out.translational += 0.5 * model.node_mass[i] * dot(s.velocity[i], s.velocity[i]);
+        let v = s.velocity(i);
+        out.translational += 0.5 * model.node_mass[i] * dot(v, v);
     }
     let mut prev_len = 0.0;
     for j in 0..n {
-        let dx = [
-            s.position[j + 1][0] - s.position[j][0],
-            s.position[j + 1][1] - s.position[j][1],
-            s.position[j + 1][2] - s.position[j][2],
-        ];
+        let (a, b) = (s.position(j), s.position(j + 1));
+        let dx = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
         let l = dot(dx, dx).sqrt();
         let e = l * model.inv_rest_length[j];
-        let w = s.omega[j];
+        let w = s.omega(j);
         let jj = model.inertia[j];
         out.rotational +=
             0.5 * (jj[0] * w[0] * w[0] + jj[1] * w[1] * w[1] + jj[2] * w[2] * w[2]) / e;
-        let m = mat_vec(&s.director[j], dx);
+        let m = mat_vec(&s.director(j), dx);
         let st = model.shear_stiffness[j];
         let ds = [
             m[0] * model.inv_rest_length[j] - rest_sigma[j][0],
@@ -75,7 +74,7 @@ pub fn energies_with_rest(
         out.stretch += 0.5 * model.rest_length[j] * density * scale;
         if j > 0 {
             let k = j - 1;
-            let (theta, _) = log_relative(&s.director[j], &s.director[k]);
+            let (theta, _) = log_relative(&s.director(j), &s.director(k));
             let inv_d = model.inv_rest_voronoi[k];
             let dk = [
                 -theta[0] * inv_d - rest_kappa[k][0],
@@ -97,8 +96,8 @@ pub fn energies_with_rest(
     out
 }
 
-/// Energies of `s` against the model's own rest strains.
-pub fn energies(model: &RodModel, s: &RodState, energy_consistent: bool) -> Energies {
+/// Energies of `s` against the model's natural rest strains.
+pub fn energies(model: &RodModel, s: &impl RodAccess, energy_consistent: bool) -> Energies {
     energies_with_rest(
         model,
         s,

@@ -34,6 +34,14 @@ pub enum ModelError {
         /// What is wrong and what is allowed.
         reason: &'static str,
     },
+    /// Two items that must have different names share one.
+    #[error("{field} = {name:?} is used twice; names must be unique")]
+    DuplicateName {
+        /// Name of the field.
+        field: &'static str,
+        /// The repeated name.
+        name: String,
+    },
     /// An array has the wrong length.
     #[error("{field} has length {len}, expected {expected}")]
     BadLength {
@@ -91,7 +99,8 @@ pub(crate) fn finite_vec(field: &'static str, value: [f64; 3]) -> Result<[f64; 3
 pub enum StepError {
     /// A quantity became non-finite or left its admissible range.
     #[error(
-        "unstable: {what} = {value:e} at {domain} {index}, t = {time:.6} s (step {step}); {advice}"
+        "unstable: {what} = {value:e} at {}{domain} {index}, t = {time:.6} s (step {step}); {advice}",
+        rod_prefix(.rod)
     )]
     Unstable {
         /// The quantity that failed (e.g. "dilatation e", "position").
@@ -102,6 +111,9 @@ pub enum StepError {
         domain: &'static str,
         /// Index in that domain.
         index: usize,
+        /// Name of the rod, in a system of several rods (None for a lone rod or a system-wide
+        /// quantity).
+        rod: Option<String>,
         /// Simulated time in s.
         time: f64,
         /// Step count.
@@ -113,4 +125,11 @@ pub enum StepError {
         /// What to change, in words (contains the suggested dt or a flag to set).
         advice: String,
     },
+}
+
+fn rod_prefix(rod: &Option<String>) -> String {
+    match rod {
+        Some(name) => format!("rod `{name}`, "),
+        None => String::new(),
+    }
 }

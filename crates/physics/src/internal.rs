@@ -1,36 +1,40 @@
 //! Strains and internal loads of the discrete Cosserat rod (spec §2–§4): element stretch/shear,
-//! Voronoi curvature/twist, the constitutive law, nodal forces and element torques. One fused
-//! kernel serves the stepper (with the velocity-dependent torques) and `ElasticLoads` (without),
-//! which controllers use to evaluate loads for other rest strains.
+//! Voronoi curvature/twist, the constitutive law, nodal forces and element torques, for every rod
+//! of a system in the system's structure-of-arrays order. One fused kernel serves the stepper
+//! (with the velocity-dependent torques) and `ElasticLoads` (without), which controllers use to
+//! evaluate loads for other rest strains.
 
 use crate::math::{cross, dot, log_relative, mat_t_vec, mat_vec, Mat3, Vec3};
 use crate::model::RodModel;
-use crate::state::RodState;
+use crate::state::{RodAccess, RodState, RodView, SystemState};
+use crate::store::Vec3s;
 
-/// Scratch arrays of one internal-load evaluation; allocated once, reused every step.
+/// Scratch arrays of one internal-load evaluation of a system; allocated once, reused every
+/// step. Element fields are in system element order, interior fields in system interior order
+/// (rod r's n − 1 points follow rod r − 1's), node fields in system node order.
 #[derive(Debug, Clone)]
 pub struct InternalLoads {
     /// Unit tangent t [-], lab frame, per element.
-    pub tangent: Vec<Vec3>,
+    pub tangent: Vec3s,
     /// Dilatation e = l/l̂, per element.
     pub dilatation: Vec<f64>,
     /// Shear/stretch strain σ (material), per element.
-    pub sigma: Vec<Vec3>,
+    pub sigma: Vec3s,
     /// Internal stress n = S(σ − σ°) [N] (material, reference form), per element.
-    pub stress: Vec<Vec3>,
+    pub stress: Vec3s,
     /// Curvature/twist κ [1/m] (material), per interior point.
-    pub kappa: Vec<Vec3>,
+    pub kappa: Vec3s,
     /// Voronoi dilatation ε, per interior point.
     pub voronoi_dilatation: Vec<f64>,
     /// Internal couple τ = B(κ − κ°) [N m] (material, reference form), per interior point.
-    pub couple: Vec<Vec3>,
-    /// Net internal force on each node [N], lab frame, n + 1 entries.
-    pub force: Vec<Vec3>,
-    /// Net internal torque on each element [N m], material frame, n entries.
-    pub torque: Vec<Vec3>,
-    // f_j = Qᵀn/e, padded to n + 1 with f[n] = 0.
+    pub couple: Vec3s,
+    /// Net internal force on each node [N], lab frame.
+    pub force: Vec3s,
+    /// Net internal torque on each element [N m], material frame.
+    pub torque: Vec3s,
+    // Per rod, padded to its n + 1 nodes (node order): f_j = Qᵀn/e with f[n] = 0, and τ/ε³ and
+    // ½ D̂ κ×τ/ε³ with slot k + 1 holding Voronoi point k and slots 0 and n zero.
     elem_force: Vec<Vec3>,
-    // τ/ε³ and ½ D̂ κ×τ/ε³, padded to n + 1: slot k + 1 holds Voronoi point k.
     couple_pad: Vec<Vec3>,
     coupling_pad: Vec<Vec3>,
     // Element length l and 1/l, and 1/ε³ per interior point: the square roots and divisions,
@@ -40,67 +44,112 @@ pub struct InternalLoads {
     inv_eps_cubed: Vec<f64>,
 }
 
+/// Where one rod's entries start in each index domain of a system.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Offsets {
+    /// First node.
+    pub node: usize,
+    /// First element.
+    pub element: usize,
+    /// First interior (Voronoi) point.
+    pub interior: usize,
+}
+
+impl Offsets {
+    /// A lone rod: every domain starts at 0.
+    pub const ZERO: Offsets = Offsets {
+        node: 0,
+        element: 0,
+        interior: 0,
+    };
+}
+
 impl InternalLoads {
-    /// Buffers for a rod of `n` elements.
-    pub fn new(n: usize) -> Self {
+    /// Buffers for a system with these totals.
+    pub fn new(n_nodes: usize, n_elements: usize, n_interior: usize) -> Self {
         Self {
-            tangent: vec![[0.0; 3]; n],
-            dilatation: vec![1.0; n],
-            sigma: vec![[0.0; 3]; n],
-            stress: vec![[0.0; 3]; n],
-            kappa: vec![[0.0; 3]; n - 1],
-            voronoi_dilatation: vec![1.0; n - 1],
-            couple: vec![[0.0; 3]; n - 1],
-            force: vec![[0.0; 3]; n + 1],
-            torque: vec![[0.0; 3]; n],
-            elem_force: vec![[0.0; 3]; n + 1],
-            couple_pad: vec![[0.0; 3]; n + 1],
-            coupling_pad: vec![[0.0; 3]; n + 1],
-            length: vec![0.0; n],
-            inv_length: vec![0.0; n],
-            inv_eps_cubed: vec![0.0; n - 1],
+            tangent: Vec3s::zeros(n_elements),
+            dilatation: vec![1.0; n_elements],
+            sigma: Vec3s::zeros(n_elements),
+            stress: Vec3s::zeros(n_elements),
+            kappa: Vec3s::zeros(n_interior),
+            voronoi_dilatation: vec![1.0; n_interior],
+            couple: Vec3s::zeros(n_interior),
+            force: Vec3s::zeros(n_nodes),
+            torque: Vec3s::zeros(n_elements),
+            elem_force: vec![[0.0; 3]; n_nodes],
+            couple_pad: vec![[0.0; 3]; n_nodes],
+            coupling_pad: vec![[0.0; 3]; n_nodes],
+            length: vec![0.0; n_elements],
+            inv_length: vec![0.0; n_elements],
+            inv_eps_cubed: vec![0.0; n_interior],
         }
     }
 
-    /// Evaluate strains, the internal nodal forces and element torques of `s` with the given rest
-    /// strains. `with_velocity_terms` adds the gyroscopic and unsteady-dilatation torques (eq. 4.3);
-    /// `energy_consistent` adds the tension corrections of eq. 4.5.
-    pub fn compute(
+    /// Buffers for one rod of `n` elements.
+    pub fn for_rod(n: usize) -> Self {
+        Self::new(n + 1, n, n - 1)
+    }
+
+    /// Evaluate strains, internal nodal forces and element torques of one rod of `state` (model
+    /// `model`, at `at`) with the given rest strains (the rod's own slices). `with_velocity_terms`
+    /// adds the gyroscopic and unsteady-dilatation torques (eq. 4.3); `energy_consistent` adds
+    /// the tension corrections of eq. 4.5.
+    #[allow(clippy::too_many_arguments)]
+    pub fn compute_rod(
         &mut self,
         model: &RodModel,
-        s: &RodState,
+        state: &SystemState,
+        at: Offsets,
         rest_sigma: &[Vec3],
         rest_kappa: &[Vec3],
         with_velocity_terms: bool,
         energy_consistent: bool,
     ) {
         let n = model.n_elements;
-        let x = &s.position[..n + 1];
-        let v = &s.velocity[..n + 1];
-        let q = &s.director[..n];
-        let w = &s.omega[..n];
+        let rod = state.view(at.node, at.element, n);
+        self.compute_view(
+            model,
+            &rod,
+            at,
+            rest_sigma,
+            rest_kappa,
+            with_velocity_terms,
+            energy_consistent,
+        );
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn compute_view(
+        &mut self,
+        model: &RodModel,
+        rod: &RodView<'_>,
+        at: Offsets,
+        rest_sigma: &[Vec3],
+        rest_kappa: &[Vec3],
+        with_velocity_terms: bool,
+        energy_consistent: bool,
+    ) {
+        let n = model.n_elements;
+        let (e0, n0, k0) = (at.element, at.node, at.interior);
+        let [px, py, pz] = rod.position;
+        let [vx, vy, vz] = rod.velocity;
+        let q = &rod.director;
+        let [wx, wy, wz] = rod.omega;
         let lr = &model.rest_length[..n];
         let inv_lr = &model.inv_rest_length[..n];
         let stiff = &model.shear_stiffness[..n];
         let inertia = &model.inertia[..n];
         let s0 = &rest_sigma[..n];
-        let tangent = &mut self.tangent[..n];
-        let dil = &mut self.dilatation[..n];
-        let sigma = &mut self.sigma[..n];
-        let stress = &mut self.stress[..n];
-        let f = &mut self.elem_force[..n + 1];
-        let torque = &mut self.torque[..n];
-        let len = &mut self.length[..n];
-        let inv_len = &mut self.inv_length[..n];
+        let dil = &mut self.dilatation[e0..e0 + n];
+        let f = &mut self.elem_force[n0..n0 + n + 1];
+        let len = &mut self.length[e0..e0 + n];
+        let inv_len = &mut self.inv_length[e0..e0 + n];
 
         // Lengths and dilatations first: a loop of square roots and divisions only, which LLVM
         // vectorises, unlike the long element loop below.
         for j in 0..n {
-            let dx = [
-                x[j + 1][0] - x[j][0],
-                x[j + 1][1] - x[j][1],
-                x[j + 1][2] - x[j][2],
-            ];
+            let dx = [px[j + 1] - px[j], py[j + 1] - py[j], pz[j + 1] - pz[j]];
             let l = dot(dx, dx).sqrt();
             len[j] = l;
             inv_len[j] = 1.0 / l;
@@ -110,39 +159,37 @@ impl InternalLoads {
         // Loop A: geometry, shear/stretch strain (eq. 2.2), stress, element force (eq. 4.1) and
         // the element-local torques (shear–stretch coupling, gyroscopic, unsteady dilatation).
         for j in 0..n {
-            let dx = [
-                x[j + 1][0] - x[j][0],
-                x[j + 1][1] - x[j][1],
-                x[j + 1][2] - x[j][2],
-            ];
+            let dx = [px[j + 1] - px[j], py[j + 1] - py[j], pz[j + 1] - pz[j]];
             let inv_l = inv_len[j];
             let t = [dx[0] * inv_l, dx[1] * inv_l, dx[2] * inv_l];
             let e = dil[j];
             let inv_e = lr[j] * inv_l;
-            let qt = mat_vec(&q[j], t);
+            let qj: Mat3 = [
+                [q[0][j], q[1][j], q[2][j]],
+                [q[3][j], q[4][j], q[5][j]],
+                [q[6][j], q[7][j], q[8][j]],
+            ];
+            let qt = mat_vec(&qj, t);
             let sg = [e * qt[0], e * qt[1], e * qt[2] - 1.0];
             let nn = [
                 stiff[j][0] * (sg[0] - s0[j][0]),
                 stiff[j][1] * (sg[1] - s0[j][1]),
                 stiff[j][2] * (sg[2] - s0[j][2]),
             ];
-            let fl = mat_t_vec(&q[j], nn);
+            let fl = mat_t_vec(&qj, nn);
             f[j] = [fl[0] * inv_e, fl[1] * inv_e, fl[2] * inv_e];
             let c = cross(qt, nn);
             let mut tq = [lr[j] * c[0], lr[j] * c[1], lr[j] * c[2]];
             if with_velocity_terms {
-                let dv = [
-                    v[j + 1][0] - v[j][0],
-                    v[j + 1][1] - v[j][1],
-                    v[j + 1][2] - v[j][2],
-                ];
+                let dv = [vx[j + 1] - vx[j], vy[j + 1] - vy[j], vz[j + 1] - vz[j]];
                 let edot = dot(t, dv) * inv_lr[j];
+                let w = [wx[j], wy[j], wz[j]];
                 let g = [
-                    inertia[j][0] * w[j][0] * inv_e,
-                    inertia[j][1] * w[j][1] * inv_e,
-                    inertia[j][2] * w[j][2] * inv_e,
+                    inertia[j][0] * w[0] * inv_e,
+                    inertia[j][1] * w[1] * inv_e,
+                    inertia[j][2] * w[2] * inv_e,
                 ];
-                let gw = cross(g, w[j]);
+                let gw = cross(g, w);
                 let r = edot * inv_e;
                 tq = [
                     tq[0] + gw[0] + g[0] * r,
@@ -150,10 +197,11 @@ impl InternalLoads {
                     tq[2] + gw[2] + g[2] * r,
                 ];
             }
-            tangent[j] = t;
-            sigma[j] = sg;
-            stress[j] = nn;
-            torque[j] = tq;
+            let k = e0 + j;
+            self.tangent.set(k, t);
+            self.sigma.set(k, sg);
+            self.stress.set(k, nn);
+            self.torque.set(k, tq);
         }
         f[n] = [0.0; 3];
 
@@ -162,36 +210,34 @@ impl InternalLoads {
         let dr = &model.rest_voronoi_length[..nk];
         let inv_dr = &model.inv_rest_voronoi[..nk];
         let bend = &model.bend_stiffness[..nk];
-        let k0 = &rest_kappa[..nk];
-        let kappa = &mut self.kappa[..nk];
-        let eps_out = &mut self.voronoi_dilatation[..nk];
-        let couple = &mut self.couple[..nk];
-        let tb = &mut self.couple_pad[..n + 1];
-        let hh = &mut self.coupling_pad[..n + 1];
-        let inv_e3 = &mut self.inv_eps_cubed[..nk];
+        let kap0 = &rest_kappa[..nk];
+        let eps_out = &mut self.voronoi_dilatation[k0..k0 + nk];
+        let tb = &mut self.couple_pad[n0..n0 + n + 1];
+        let hh = &mut self.coupling_pad[n0..n0 + n + 1];
+        let inv_e3 = &mut self.inv_eps_cubed[k0..k0 + nk];
         for k in 0..nk {
             let eps = 0.5 * (dil[k] * lr[k] + dil[k + 1] * lr[k + 1]) * inv_dr[k];
             eps_out[k] = eps;
             inv_e3[k] = 1.0 / (eps * eps * eps);
         }
         for k in 0..nk {
-            let (theta, _) = log_relative(&q[k + 1], &q[k]);
+            let (theta, _) = log_relative(&rod.director(k + 1), &rod.director(k));
             let kap = [
                 -theta[0] * inv_dr[k],
                 -theta[1] * inv_dr[k],
                 -theta[2] * inv_dr[k],
             ];
             let tau = [
-                bend[k][0] * (kap[0] - k0[k][0]),
-                bend[k][1] * (kap[1] - k0[k][1]),
-                bend[k][2] * (kap[2] - k0[k][2]),
+                bend[k][0] * (kap[0] - kap0[k][0]),
+                bend[k][1] * (kap[1] - kap0[k][1]),
+                bend[k][2] * (kap[2] - kap0[k][2]),
             ];
             let kt = cross(kap, tau);
             let hf = 0.5 * dr[k] * inv_e3[k];
             tb[k + 1] = [tau[0] * inv_e3[k], tau[1] * inv_e3[k], tau[2] * inv_e3[k]];
             hh[k + 1] = [kt[0] * hf, kt[1] * hf, kt[2] * hf];
-            kappa[k] = kap;
-            couple[k] = tau;
+            self.kappa.set(k0 + k, kap);
+            self.couple.set(k0 + k, tau);
         }
         tb[0] = [0.0; 3];
         hh[0] = [0.0; 3];
@@ -202,60 +248,79 @@ impl InternalLoads {
             // Eq. 4.5: tension corrections that make the elastic loads the gradient of the
             // dilatation-scaled energies. b_k = (κ−κ°)·τ/ε⁴ feeds both neighbouring elements.
             for j in 0..n {
-                let ds = [
-                    sigma[j][0] - s0[j][0],
-                    sigma[j][1] - s0[j][1],
-                    sigma[j][2] - s0[j][2],
-                ];
-                let mut coef = 0.5 * dot(ds, stress[j]) / (dil[j] * dil[j]);
+                let sg = self.sigma.get(e0 + j);
+                let ds = [sg[0] - s0[j][0], sg[1] - s0[j][1], sg[2] - s0[j][2]];
+                let mut coef = 0.5 * dot(ds, self.stress.get(e0 + j)) / (dil[j] * dil[j]);
                 for k in [j.wrapping_sub(1), j] {
                     if k < nk {
-                        let dk = [
-                            kappa[k][0] - k0[k][0],
-                            kappa[k][1] - k0[k][1],
-                            kappa[k][2] - k0[k][2],
-                        ];
-                        coef += 0.75 * dot(dk, couple[k]) / eps_out[k].powi(4);
+                        let kp = self.kappa.get(k0 + k);
+                        let dk = [kp[0] - kap0[k][0], kp[1] - kap0[k][1], kp[2] - kap0[k][2]];
+                        coef += 0.75 * dot(dk, self.couple.get(k0 + k)) / eps_out[k].powi(4);
                     }
                 }
+                let t = self.tangent.get(e0 + j);
                 for c in 0..3 {
-                    f[j][c] -= coef * tangent[j][c];
+                    f[j][c] -= coef * t[c];
                 }
             }
         }
 
         // Loop C: bend/twist difference and bend–twist coupling average onto elements (eq. 4.3).
+        let (tx, ty, tz) = (
+            &mut self.torque.x[e0..e0 + n],
+            &mut self.torque.y[e0..e0 + n],
+            &mut self.torque.z[e0..e0 + n],
+        );
         for j in 0..n {
-            for c in 0..3 {
-                torque[j][c] += tb[j + 1][c] - tb[j][c] + hh[j + 1][c] + hh[j][c];
-            }
+            tx[j] += tb[j + 1][0] - tb[j][0] + hh[j + 1][0] + hh[j][0];
+            ty[j] += tb[j + 1][1] - tb[j][1] + hh[j + 1][1] + hh[j][1];
+            tz[j] += tb[j + 1][2] - tb[j][2] + hh[j + 1][2] + hh[j][2];
         }
 
         // Loop D: nodal forces F_i = f_i − f_{i−1} with f_{−1} = 0 (eq. 4.1).
-        let force = &mut self.force[..n + 1];
-        force[0] = f[0];
+        let (fx, fy, fz) = (
+            &mut self.force.x[n0..n0 + n + 1],
+            &mut self.force.y[n0..n0 + n + 1],
+            &mut self.force.z[n0..n0 + n + 1],
+        );
+        fx[0] = f[0][0];
+        fy[0] = f[0][1];
+        fz[0] = f[0][2];
         for i in 1..=n {
-            force[i] = [
-                f[i][0] - f[i - 1][0],
-                f[i][1] - f[i - 1][1],
-                f[i][2] - f[i - 1][2],
-            ];
+            fx[i] = f[i][0] - f[i - 1][0];
+            fy[i] = f[i][1] - f[i - 1][1];
+            fz[i] = f[i][2] - f[i - 1][2];
         }
     }
 }
 
-/// Elastic loads (no velocity terms) of a rod state for arbitrary rest strains: the routine
+/// Elastic loads (no velocity terms) of a lone rod state for arbitrary rest strains: the routine
 /// 𝓛(x; σ_rest, κ_rest) of the energy-shaping law. Holds its own scratch; no allocation per call.
 #[derive(Debug, Clone)]
 pub struct ElasticLoads {
     inner: InternalLoads,
+    state: SystemState,
+    force: Vec<Vec3>,
+    couple: Vec<Vec3>,
 }
 
 impl ElasticLoads {
     /// Buffers for a rod of `n` elements.
     pub fn new(n_elements: usize) -> Self {
+        let n = n_elements;
+        let mut state = SystemState::empty();
+        state.push_rod(&RodState {
+            time: 0.0,
+            position: vec![[0.0; 3]; n + 1],
+            velocity: vec![[0.0; 3]; n + 1],
+            director: vec![[[0.0; 3]; 3]; n],
+            omega: vec![[0.0; 3]; n],
+        });
         Self {
-            inner: InternalLoads::new(n_elements),
+            inner: InternalLoads::for_rod(n),
+            state,
+            force: vec![[0.0; 3]; n + 1],
+            couple: vec![[0.0; 3]; n],
         }
     }
 
@@ -271,19 +336,32 @@ impl ElasticLoads {
     ) {
         assert_eq!(rest_sigma.len(), model.n_elements, "rest_sigma length");
         assert_eq!(rest_kappa.len(), model.n_interior(), "rest_kappa length");
-        self.inner
-            .compute(model, s, rest_sigma, rest_kappa, false, energy_consistent);
+        self.state.write_rod(0, 0, s);
+        self.inner.compute_rod(
+            model,
+            &self.state,
+            Offsets::ZERO,
+            rest_sigma,
+            rest_kappa,
+            false,
+            energy_consistent,
+        );
+        for (i, f) in self.force.iter_mut().enumerate() {
+            *f = self.inner.force.get(i);
+        }
+        for (j, c) in self.couple.iter_mut().enumerate() {
+            *c = self.inner.torque.get(j);
+        }
     }
 
     /// Nodal forces of the last evaluation [N], lab frame.
     pub fn force(&self) -> &[Vec3] {
-        &self.inner.force
+        &self.force
     }
 
     /// Element couples of the last evaluation [N m], material frame.
-    #[allow(clippy::misnamed_getters)] // the elastic couple is the element torque buffer
     pub fn couple(&self) -> &[Vec3] {
-        &self.inner.torque
+        &self.couple
     }
 
     /// All strains and stresses of the last evaluation.
@@ -292,17 +370,14 @@ impl ElasticLoads {
     }
 }
 
-/// Strains of a state without any load evaluation: σ per element and κ per interior point
+/// Strains of a rod state without any load evaluation: σ per element and κ per interior point
 /// (material frame). Writes into the given slices (lengths n and n − 1).
-pub fn strains(model: &RodModel, s: &RodState, sigma: &mut [Vec3], kappa: &mut [Vec3]) {
+pub fn strains(model: &RodModel, s: &impl RodAccess, sigma: &mut [Vec3], kappa: &mut [Vec3]) {
     let n = model.n_elements;
     for j in 0..n {
-        let dx = [
-            s.position[j + 1][0] - s.position[j][0],
-            s.position[j + 1][1] - s.position[j][1],
-            s.position[j + 1][2] - s.position[j][2],
-        ];
-        let m = mat_vec(&s.director[j], dx);
+        let (a, b) = (s.position(j), s.position(j + 1));
+        let dx = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let m = mat_vec(&s.director(j), dx);
         sigma[j] = [
             m[0] * model.inv_rest_length[j],
             m[1] * model.inv_rest_length[j],
@@ -310,7 +385,7 @@ pub fn strains(model: &RodModel, s: &RodState, sigma: &mut [Vec3], kappa: &mut [
         ];
     }
     for k in 0..n - 1 {
-        let (theta, _) = log_relative(&s.director[k + 1], &s.director[k]);
+        let (theta, _) = log_relative(&s.director(k + 1), &s.director(k));
         kappa[k] = [
             -theta[0] * model.inv_rest_voronoi[k],
             -theta[1] * model.inv_rest_voronoi[k],

@@ -1,38 +1,42 @@
-//! External loads (spec §9): gravity, point and distributed forces, point, distributed and follower
-//! couples, with optional linear ramps. Forces are lab frame on nodes; couples are accumulated in
-//! the material frame of each element. Contact and control loads are added elsewhere.
+//! External loads (spec §9): gravity, point and distributed forces, point, distributed and
+//! follower couples, each on one rod and scaled by a time `Schedule`. Forces are lab frame on
+//! nodes; couples are accumulated in the material frame of each element. Contact, joints and
+//! actuation are added elsewhere (`contact.rs`, `joints.rs`, `actuation.rs`).
 
-use crate::error::{finite_vec, non_negative, ModelError};
+use crate::error::{finite_vec, ModelError};
 use crate::math::{mat_vec, Vec3};
 use crate::model::RodModel;
-use crate::state::RodState;
+use crate::schedule::Schedule;
+use crate::state::{RodAccess, RodView};
+use crate::store::Vec3s;
 
-/// External loads of one force evaluation: nodal forces (lab) and element couples (material).
+/// External loads of one force evaluation for a whole system: nodal forces (lab) and element
+/// couples (material), in the system's node and element order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExternalLoads {
-    /// Force on each node [N], lab frame, n + 1 entries.
-    pub force: Vec<Vec3>,
-    /// Couple on each element [N m], material frame of that element, n entries.
-    pub couple: Vec<Vec3>,
+    /// Force on each node [N], lab frame.
+    pub force: Vec3s,
+    /// Couple on each element [N m], material frame of that element.
+    pub couple: Vec3s,
 }
 
 impl ExternalLoads {
-    /// Zero loads for a rod of `n` elements.
-    pub fn zeros(n_elements: usize) -> Self {
+    /// Zero loads for `n_nodes` nodes and `n_elements` elements.
+    pub fn zeros(n_nodes: usize, n_elements: usize) -> Self {
         Self {
-            force: vec![[0.0; 3]; n_elements + 1],
-            couple: vec![[0.0; 3]; n_elements],
+            force: Vec3s::zeros(n_nodes),
+            couple: Vec3s::zeros(n_elements),
         }
     }
 
     /// Reset to zero without reallocating.
     pub fn clear(&mut self) {
-        self.force.fill([0.0; 3]);
-        self.couple.fill([0.0; 3]);
+        self.force.fill_zero();
+        self.couple.fill_zero();
     }
 }
 
-/// One external load. `ramp_time` > 0 scales a load by min(1, t / ramp_time).
+/// One external load on one rod (its value at schedule factor 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Load {
     /// Uniform gravitational acceleration g [m/s²]: F_i += m_i g.
@@ -46,10 +50,8 @@ pub enum Load {
         node: usize,
         /// Force [N].
         force: Vec3,
-        /// Ramp duration [s]; 0 applies the full force at once.
-        ramp_time: f64,
     },
-    /// Constant distributed force per unit rest length [N/m], lab frame: F_i += p ℓ̂_i.
+    /// Distributed force per unit rest length [N/m], lab frame: F_i += p ℓ̂_i.
     UniformForce {
         /// Force per length [N/m].
         force_per_length: Vec3,
@@ -60,15 +62,20 @@ pub enum Load {
         element: usize,
         /// Couple [N m], lab frame.
         couple: Vec3,
-        /// Ramp duration [s]; 0 applies the full couple at once.
-        ramp_time: f64,
     },
-    /// Constant distributed couple per unit rest length [N m/m], lab frame: C_j += Q_j c l̂_j.
+    /// Point follower couple on one element [N m], material frame: C_j += M.
+    FollowerElementCouple {
+        /// Element index.
+        element: usize,
+        /// Couple [N m], material frame (turns with the element).
+        couple: Vec3,
+    },
+    /// Distributed couple per unit rest length [N m/m], lab frame: C_j += Q_j c l̂_j.
     UniformCouple {
         /// Couple per length [N], lab frame.
         couple_per_length: Vec3,
     },
-    /// Constant distributed follower couple per unit rest length [N], material frame.
+    /// Distributed follower couple per unit rest length [N], material frame: C_j += c l̂_j.
     FollowerCouple {
         /// Couple per length [N], material frame.
         couple_per_length: Vec3,
@@ -81,7 +88,6 @@ impl Load {
         Load::NodeForce {
             node: n_elements,
             force,
-            ramp_time: 0.0,
         }
     }
 
@@ -90,19 +96,27 @@ impl Load {
         Load::ElementCouple {
             element: n_elements - 1,
             couple,
-            ramp_time: 0.0,
         }
     }
 
-    /// Check indices and values against the model.
+    /// The scenario name of the kind.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Load::Gravity { .. } => "gravity",
+            Load::NodeForce { .. } => "node_force",
+            Load::UniformForce { .. } => "uniform_force",
+            Load::ElementCouple { .. } => "element_couple",
+            Load::FollowerElementCouple { .. } => "follower_element_couple",
+            Load::UniformCouple { .. } => "uniform_couple",
+            Load::FollowerCouple { .. } => "follower_couple",
+        }
+    }
+
+    /// Check indices and values against the model of the rod it acts on.
     pub fn validate(&self, model: &RodModel) -> Result<(), ModelError> {
         match *self {
             Load::Gravity { acceleration } => finite_vec("gravity", acceleration).map(|_| ()),
-            Load::NodeForce {
-                node,
-                force,
-                ramp_time,
-            } => {
+            Load::NodeForce { node, force } => {
                 if node > model.n_elements {
                     return Err(ModelError::CountOutOfRange {
                         field: "node",
@@ -110,17 +124,13 @@ impl Load {
                         range: "[0, n_elements]",
                     });
                 }
-                finite_vec("force", force)?;
-                non_negative("ramp_time", ramp_time).map(|_| ())
+                finite_vec("force", force).map(|_| ())
             }
             Load::UniformForce { force_per_length } => {
                 finite_vec("force_per_length", force_per_length).map(|_| ())
             }
-            Load::ElementCouple {
-                element,
-                couple,
-                ramp_time,
-            } => {
+            Load::ElementCouple { element, couple }
+            | Load::FollowerElementCouple { element, couple } => {
                 if element >= model.n_elements {
                     return Err(ModelError::CountOutOfRange {
                         field: "element",
@@ -128,8 +138,7 @@ impl Load {
                         range: "[0, n_elements - 1]",
                     });
                 }
-                finite_vec("couple", couple)?;
-                non_negative("ramp_time", ramp_time).map(|_| ())
+                finite_vec("couple", couple).map(|_| ())
             }
             Load::UniformCouple { couple_per_length }
             | Load::FollowerCouple { couple_per_length } => {
@@ -138,68 +147,85 @@ impl Load {
         }
     }
 
-    /// Add this load, evaluated at time `t` with the state `s`, to `out`.
-    pub fn apply(&self, model: &RodModel, s: &RodState, t: f64, out: &mut ExternalLoads) {
-        let ramp = |ramp_time: f64| {
-            if ramp_time > 0.0 {
-                (t / ramp_time).clamp(0.0, 1.0)
-            } else {
-                1.0
-            }
-        };
+    /// Add this load times `k` on the rod `s` (model `model`, nodes from `first_node`, elements
+    /// from `first_element` in `out`).
+    pub(crate) fn apply(
+        &self,
+        model: &RodModel,
+        s: &RodView<'_>,
+        k: f64,
+        first_node: usize,
+        first_element: usize,
+        out: &mut ExternalLoads,
+    ) {
+        let n = model.n_elements;
+        // Every product is formed as k · (value), so that k = 1 gives the unscaled value exactly.
         match *self {
             Load::Gravity { acceleration: g } => {
-                for (f, m) in out.force.iter_mut().zip(&model.node_mass) {
-                    for c in 0..3 {
-                        f[c] += m * g[c];
-                    }
+                for (i, m) in model.node_mass.iter().enumerate() {
+                    out.force.add(
+                        first_node + i,
+                        [k * (m * g[0]), k * (m * g[1]), k * (m * g[2])],
+                    );
                 }
             }
-            Load::NodeForce {
-                node,
-                force,
-                ramp_time,
-            } => {
-                let k = ramp(ramp_time);
-                for c in 0..3 {
-                    out.force[node][c] += k * force[c];
-                }
+            Load::NodeForce { node, force } => {
+                out.force.add(
+                    first_node + node,
+                    [k * force[0], k * force[1], k * force[2]],
+                );
             }
             Load::UniformForce {
                 force_per_length: p,
             } => {
-                for (f, l) in out.force.iter_mut().zip(&model.nodal_rest_length) {
-                    for c in 0..3 {
-                        f[c] += p[c] * l;
-                    }
+                for (i, l) in model.nodal_rest_length.iter().enumerate() {
+                    out.force.add(
+                        first_node + i,
+                        [k * (p[0] * l), k * (p[1] * l), k * (p[2] * l)],
+                    );
                 }
             }
-            Load::ElementCouple {
-                element,
-                couple,
-                ramp_time,
-            } => {
-                let k = ramp(ramp_time);
-                let m = mat_vec(&s.director[element], couple);
-                for c in 0..3 {
-                    out.couple[element][c] += k * m[c];
-                }
+            Load::ElementCouple { element, couple } => {
+                let m = mat_vec(&s.director(element), couple);
+                out.couple
+                    .add(first_element + element, [k * m[0], k * m[1], k * m[2]]);
+            }
+            Load::FollowerElementCouple { element, couple } => {
+                out.couple.add(
+                    first_element + element,
+                    [k * couple[0], k * couple[1], k * couple[2]],
+                );
             }
             Load::UniformCouple { couple_per_length } => {
-                for j in 0..model.n_elements {
-                    let m = mat_vec(&s.director[j], couple_per_length);
-                    for c in 0..3 {
-                        out.couple[j][c] += m[c] * model.rest_length[j];
-                    }
+                for j in 0..n {
+                    let m = mat_vec(&s.director(j), couple_per_length);
+                    let l = model.rest_length[j];
+                    out.couple.add(
+                        first_element + j,
+                        [k * (m[0] * l), k * (m[1] * l), k * (m[2] * l)],
+                    );
                 }
             }
-            Load::FollowerCouple { couple_per_length } => {
-                for j in 0..model.n_elements {
-                    for c in 0..3 {
-                        out.couple[j][c] += couple_per_length[c] * model.rest_length[j];
-                    }
+            Load::FollowerCouple { couple_per_length: c } => {
+                for j in 0..n {
+                    let l = model.rest_length[j];
+                    out.couple.add(
+                        first_element + j,
+                        [k * (c[0] * l), k * (c[1] * l), k * (c[2] * l)],
+                    );
                 }
             }
         }
     }
+}
+
+/// A load on one rod of a system with its schedule.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AppliedLoad {
+    /// Index of the rod in the system.
+    pub rod: usize,
+    /// The load at factor 1.
+    pub load: Load,
+    /// Time factor.
+    pub schedule: Schedule,
 }

@@ -1,6 +1,7 @@
-//! The rod model: geometry, material, stiffnesses, masses and rest strains (spec §1, §3). It is
-//! built once, validated, and read by the stepper; only the rest strains may change during a run
-//! (the energy-shaping controller rewrites them). The evolving state lives in `state.rs`.
+//! The rod model: geometry, material, stiffnesses, masses and natural rest strains of one rod
+//! (spec §1, §3). It is built once, validated, and shared (read-only) by every rod of a system
+//! that uses it; the rest strains in force during a run belong to the system (`system.rs`), the
+//! evolving state to `state.rs`.
 
 use crate::error::{finite_vec, positive, ModelError};
 use crate::math::{cross, dot, norm, scale, Mat3, Vec3};
@@ -34,16 +35,6 @@ impl Material {
     }
 }
 
-/// How the rod is held.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Boundary {
-    /// Node 0 and element 0 held at their initial position and frame (paper: r(0) = 0, θ(0) = 0);
-    /// the tip is free.
-    ClampedBase,
-    /// Both ends free.
-    Free,
-}
-
 /// Everything about one rod that does not change during a run, except the rest strains.
 /// Domains: `node` (n + 1), `element` (n), `interior` Voronoi point (n − 1, between elements k
 /// and k + 1, at node k + 1).
@@ -53,8 +44,6 @@ pub struct RodModel {
     pub n_elements: usize,
     /// Material constants.
     pub material: Material,
-    /// Boundary condition.
-    pub boundary: Boundary,
     /// Rest length l̂ [m], per element.
     pub rest_length: Vec<f64>,
     /// Rest Voronoi length D̂ [m], per interior point.
@@ -80,9 +69,10 @@ pub struct RodModel {
     /// Bend/twist stiffness B = diag(E I1, E I2, G I3) [N m²], per interior point, rest-length
     /// weighted average of the neighbouring elements (eq. 3.2).
     pub bend_stiffness: Vec<Vec3>,
-    /// Rest shear/stretch strain σ° (material frame), per element; default 0.
+    /// Natural rest shear/stretch strain σ° (material frame), per element; default 0. A system
+    /// starts each rod with these; the rest strains in force are the system's.
     pub rest_sigma: Vec<Vec3>,
-    /// Rest curvature/twist κ° [1/m] (material frame), per interior point; default 0.
+    /// Natural rest curvature/twist κ° [1/m] (material frame), per interior point; default 0.
     pub rest_kappa: Vec<Vec3>,
     pub(crate) inv_rest_length: Vec<f64>,
     pub(crate) inv_rest_voronoi: Vec<f64>,
@@ -97,7 +87,6 @@ impl RodModel {
         rest_length: &[f64],
         radius: &[f64],
         material: Material,
-        boundary: Boundary,
     ) -> Result<Self, ModelError> {
         material.validate()?;
         let n = rest_length.len();
@@ -175,7 +164,6 @@ impl RodModel {
         Ok(Self {
             n_elements: n,
             material,
-            boundary,
             inv_rest_length: rest_length.iter().map(|l| 1.0 / l).collect(),
             inv_rest_voronoi: rest_voronoi_length.iter().map(|d| 1.0 / d).collect(),
             inv_node_mass: node_mass.iter().map(|m| 1.0 / m).collect(),
@@ -301,13 +289,11 @@ pub struct StraightRod {
     pub normal: Vec3,
     /// Uniform rest curvature κ° [1/m] in the material frame (κ1, κ2, κ3); default 0.
     pub rest_curvature: Vec3,
-    /// Boundary condition; default clamped base.
-    pub boundary: Boundary,
 }
 
 impl StraightRod {
     /// The paper's arm: L0 = 0.2 m, 100 elements, diameter 2 cm → 0.04 cm, E = 10 kPa,
-    /// G = 1 kPa, ρ = 700 kg/m³, α_c = 27/28, along +x with d1 = e_y, clamped at the origin.
+    /// G = 1 kPa, ρ = 700 kg/m³, α_c = 27/28, along +x with d1 = e_y, based at the origin.
     pub fn paper_arm() -> Self {
         Self {
             n_elements: 100,
@@ -324,11 +310,10 @@ impl StraightRod {
             direction: [1.0, 0.0, 0.0],
             normal: [0.0, 1.0, 0.0],
             rest_curvature: [0.0; 3],
-            boundary: Boundary::ClampedBase,
         }
     }
 
-    /// A uniform rod along +x with d1 = e_y, clamped at the origin.
+    /// A uniform rod along +x with d1 = e_y, based at the origin.
     pub fn uniform(n_elements: usize, length: f64, diameter: f64, material: Material) -> Self {
         Self {
             n_elements,
@@ -340,7 +325,6 @@ impl StraightRod {
             direction: [1.0, 0.0, 0.0],
             normal: [0.0, 1.0, 0.0],
             rest_curvature: [0.0; 3],
-            boundary: Boundary::ClampedBase,
         }
     }
 
@@ -392,8 +376,7 @@ impl StraightRod {
                 0.5 * (self.tip_diameter * s + self.base_diameter * (self.length - s)) / self.length
             })
             .collect();
-        let mut model =
-            RodModel::from_elements(&vec![dl; n], &radius, self.material, self.boundary)?;
+        let mut model = RodModel::from_elements(&vec![dl; n], &radius, self.material)?;
         model.rest_kappa = vec![self.rest_curvature; n - 1];
         let frame: Mat3 = [d1, d2, d3];
         let position = (0..=n)

@@ -1,0 +1,652 @@
+//! A rod system: many rods in one store, each with a (shared) model, its two end conditions and
+//! damping, plus joints between rod ends, external loads with schedules, rigid obstacles, the
+//! rest strains in force and the numerical settings. `SystemBuilder` assembles rods and their
+//! initial states into a `RodSystem` and its `SystemState`; the stepper (`step.rs`) reads the
+//! system and never changes it.
+
+use crate::contact::{ContactParams, Sphere};
+use crate::damping::Damping;
+use crate::ends::{End, EndCondition, Side};
+use crate::error::{finite_vec, positive, ModelError};
+use crate::internal::Offsets;
+use crate::joints::Joint;
+use crate::loads::{AppliedLoad, Load};
+use crate::math::{orthonormality_defect, Mat3, Vec3};
+use crate::model::RodModel;
+use crate::schedule::Schedule;
+use crate::state::{RodState, RodView, SystemState};
+use std::sync::Arc;
+
+/// Numerical settings of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Time step Δt [s], > 0. The paper uses 1e-5 s. The only copy of dt.
+    pub dt: f64,
+    /// Add the energy-consistent tension corrections of eq. 4.5 (default off).
+    pub energy_consistent: bool,
+    /// Steps between stability-guard checks (default 100).
+    pub guard_interval: u64,
+    /// Steps between orthonormality checks of the frames (default 1000).
+    pub orthonormality_interval: u64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            dt: 1.0e-5,
+            energy_consistent: false,
+            guard_interval: 100,
+            orthonormality_interval: 1000,
+        }
+    }
+}
+
+impl Settings {
+    /// Settings with time step `dt` and defaults otherwise.
+    pub fn with_dt(dt: f64) -> Self {
+        Self {
+            dt,
+            ..Self::default()
+        }
+    }
+
+    /// Check dt > 0 and intervals ≥ 1.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        positive("dt", self.dt)?;
+        if self.guard_interval == 0 {
+            return Err(ModelError::CountOutOfRange {
+                field: "guard_interval",
+                value: 0,
+                range: "[1, inf)",
+            });
+        }
+        if self.orthonormality_interval == 0 {
+            return Err(ModelError::CountOutOfRange {
+                field: "orthonormality_interval",
+                value: 0,
+                range: "[1, inf)",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// One rod of a system.
+#[derive(Debug, Clone)]
+pub struct Rod {
+    /// Name (unique in the system; used in output keys and messages).
+    pub name: String,
+    /// Geometry and material, shared with every other rod built from the same model.
+    pub model: Arc<RodModel>,
+    /// The base (node 0, element 0) and how it is held.
+    pub base: End,
+    /// The tip (node n, element n − 1) and how it is held.
+    pub tip: End,
+    /// Damping of this rod.
+    pub damping: Damping,
+    pub(crate) at: Offsets,
+}
+
+impl Rod {
+    /// Number of elements n.
+    pub fn n_elements(&self) -> usize {
+        self.model.n_elements
+    }
+
+    /// Where this rod's nodes, elements and interior points start in the system's arrays.
+    pub fn offsets(&self) -> Offsets {
+        self.at
+    }
+
+    /// This rod's nodes in the system's node order.
+    pub fn nodes(&self) -> std::ops::Range<usize> {
+        self.at.node..self.at.node + self.model.n_elements + 1
+    }
+
+    /// This rod's elements in the system's element order.
+    pub fn elements(&self) -> std::ops::Range<usize> {
+        self.at.element..self.at.element + self.model.n_elements
+    }
+
+    /// This rod's interior points in the system's interior order.
+    pub fn interior(&self) -> std::ops::Range<usize> {
+        self.at.interior..self.at.interior + self.model.n_elements - 1
+    }
+
+    /// The end on `side`.
+    pub fn end(&self, side: Side) -> &End {
+        match side {
+            Side::Base => &self.base,
+            Side::Tip => &self.tip,
+        }
+    }
+}
+
+/// A scheduled change of one rod's rest strains: the rest strains in force at time t are the
+/// system's `rest_sigma` / `rest_kappa` plus f(t) times these.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RestChange {
+    /// Index of the rod.
+    pub rod: usize,
+    /// Change of σ° per element (n entries), or empty for none.
+    pub sigma: Vec<Vec3>,
+    /// Change of κ° [1/m] per interior point (n − 1 entries), or empty for none.
+    pub kappa: Vec<Vec3>,
+    /// Time factor f(t).
+    pub schedule: Schedule,
+}
+
+/// Everything about a system that the stepper reads: rods, joints, loads, obstacles, contact
+/// parameters, the rest strains in force, and the settings. Build it with `SystemBuilder`.
+#[derive(Debug, Clone)]
+pub struct RodSystem {
+    /// Numerical settings (change through `set_settings`, which validates).
+    pub(crate) settings: Settings,
+    pub(crate) rods: Vec<Rod>,
+    pub(crate) joints: Vec<Joint>,
+    pub(crate) loads: Vec<AppliedLoad>,
+    pub(crate) obstacles: Vec<Sphere>,
+    pub(crate) contact: ContactParams,
+    /// Rest shear/stretch strains in force σ° (material), per element of the system. Controllers
+    /// and users may change them between steps (entries must stay finite).
+    pub rest_sigma: Vec<Vec3>,
+    /// Rest curvatures in force κ° [1/m] (material), per interior point of the system.
+    pub rest_kappa: Vec<Vec3>,
+    pub(crate) rest_changes: Vec<RestChange>,
+    pub(crate) n_nodes: usize,
+    pub(crate) n_elements: usize,
+    pub(crate) n_interior: usize,
+}
+
+impl RodSystem {
+    /// The numerical settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Replace the numerical settings.
+    pub fn set_settings(&mut self, settings: Settings) -> Result<(), ModelError> {
+        settings.validate()?;
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// The rods, in system order.
+    pub fn rods(&self) -> &[Rod] {
+        &self.rods
+    }
+
+    /// Rod `r`.
+    pub fn rod(&self, r: usize) -> &Rod {
+        &self.rods[r]
+    }
+
+    /// Index of the rod called `name`.
+    pub fn rod_index(&self, name: &str) -> Option<usize> {
+        self.rods.iter().position(|r| r.name == name)
+    }
+
+    /// The joints.
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+
+    /// The loads with their rods and schedules.
+    pub fn loads(&self) -> &[AppliedLoad] {
+        &self.loads
+    }
+
+    /// The rigid obstacles (every rod touches every obstacle).
+    pub fn obstacles(&self) -> &[Sphere] {
+        &self.obstacles
+    }
+
+    /// Contact penalty parameters.
+    pub fn contact(&self) -> &ContactParams {
+        &self.contact
+    }
+
+    /// Scheduled rest-strain changes.
+    pub fn rest_changes(&self) -> &[RestChange] {
+        &self.rest_changes
+    }
+
+    /// Total number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.n_nodes
+    }
+
+    /// Total number of elements.
+    pub fn n_elements(&self) -> usize {
+        self.n_elements
+    }
+
+    /// Total number of interior points.
+    pub fn n_interior(&self) -> usize {
+        self.n_interior
+    }
+
+    /// Add a load on rod `rod` with a schedule, after checking both.
+    pub fn add_load(
+        &mut self,
+        rod: usize,
+        load: Load,
+        schedule: Schedule,
+    ) -> Result<(), ModelError> {
+        let r = self.rods.get(rod).ok_or(ModelError::CountOutOfRange {
+            field: "load.rod",
+            value: rod,
+            range: "[0, number of rods - 1]",
+        })?;
+        load.validate(&r.model)?;
+        schedule.validate()?;
+        self.loads.push(AppliedLoad {
+            rod,
+            load,
+            schedule,
+        });
+        Ok(())
+    }
+
+    /// Remove every load.
+    pub fn clear_loads(&mut self) {
+        self.loads.clear();
+    }
+
+    /// Add a rigid sphere obstacle.
+    pub fn add_obstacle(&mut self, sphere: Sphere) -> Result<(), ModelError> {
+        sphere.validate()?;
+        self.obstacles.push(sphere);
+        Ok(())
+    }
+
+    /// Remove every obstacle.
+    pub fn clear_obstacles(&mut self) {
+        self.obstacles.clear();
+    }
+
+    /// Set the contact penalty parameters.
+    pub fn set_contact(&mut self, contact: ContactParams) -> Result<(), ModelError> {
+        contact.validate()?;
+        self.contact = contact;
+        Ok(())
+    }
+
+    /// Set the damping of rod `rod`.
+    pub fn set_damping(&mut self, rod: usize, damping: Damping) -> Result<(), ModelError> {
+        damping.validate()?;
+        self.rods[rod].damping = damping;
+        Ok(())
+    }
+
+    /// Set the damping of every rod.
+    pub fn set_damping_all(&mut self, damping: Damping) -> Result<(), ModelError> {
+        damping.validate()?;
+        for r in &mut self.rods {
+            r.damping = damping;
+        }
+        Ok(())
+    }
+
+    /// Replace rod `rod`'s rest strains in force (σ° per element, κ° per interior point).
+    /// Errors on wrong lengths or non-finite entries, leaving the system unchanged.
+    pub fn set_rest_strains(
+        &mut self,
+        rod: usize,
+        sigma: &[Vec3],
+        kappa: &[Vec3],
+    ) -> Result<(), ModelError> {
+        let r = &self.rods[rod];
+        let n = r.n_elements();
+        check_rest(sigma, kappa, n)?;
+        let (e, k) = (r.elements(), r.interior());
+        self.rest_sigma[e].copy_from_slice(sigma);
+        self.rest_kappa[k].copy_from_slice(kappa);
+        Ok(())
+    }
+
+    /// Rod `rod`'s rest strains in force (σ°, κ°), without scheduled changes.
+    pub fn rest_strains(&self, rod: usize) -> (&[Vec3], &[Vec3]) {
+        let r = &self.rods[rod];
+        (&self.rest_sigma[r.elements()], &self.rest_kappa[r.interior()])
+    }
+
+    /// Add a scheduled rest-strain change (see `RestChange`).
+    pub fn add_rest_change(&mut self, change: RestChange) -> Result<(), ModelError> {
+        let r = self.rods.get(change.rod).ok_or(ModelError::CountOutOfRange {
+            field: "rest_change.rod",
+            value: change.rod,
+            range: "[0, number of rods - 1]",
+        })?;
+        let n = r.n_elements();
+        if !change.sigma.is_empty() && change.sigma.len() != n {
+            return Err(ModelError::BadLength {
+                field: "rest_change.sigma",
+                len: change.sigma.len(),
+                expected: n,
+            });
+        }
+        if !change.kappa.is_empty() && change.kappa.len() != n - 1 {
+            return Err(ModelError::BadLength {
+                field: "rest_change.kappa",
+                len: change.kappa.len(),
+                expected: n - 1,
+            });
+        }
+        for v in change.sigma.iter().chain(&change.kappa) {
+            finite_vec("rest_change", *v)?;
+        }
+        change.schedule.validate()?;
+        self.rest_changes.push(change);
+        Ok(())
+    }
+
+    /// The rest strains in force at time t for the whole system, written into `sigma` and
+    /// `kappa` (system-sized): `rest_sigma` / `rest_kappa` plus the scheduled changes.
+    pub fn rest_at(&self, t: f64, sigma: &mut [Vec3], kappa: &mut [Vec3]) {
+        sigma.copy_from_slice(&self.rest_sigma);
+        kappa.copy_from_slice(&self.rest_kappa);
+        for ch in &self.rest_changes {
+            let f = ch.schedule.factor(t);
+            let r = &self.rods[ch.rod];
+            for (dst, d) in sigma[r.elements()].iter_mut().zip(&ch.sigma) {
+                for c in 0..3 {
+                    dst[c] += f * d[c];
+                }
+            }
+            for (dst, d) in kappa[r.interior()].iter_mut().zip(&ch.kappa) {
+                for c in 0..3 {
+                    dst[c] += f * d[c];
+                }
+            }
+        }
+    }
+
+    /// Borrow rod `rod` of `state`.
+    pub fn view<'a>(&self, state: &'a SystemState, rod: usize) -> RodView<'a> {
+        let r = &self.rods[rod];
+        state.view(r.at.node, r.at.element, r.n_elements())
+    }
+
+    /// Copy of rod `rod`'s state (allocates).
+    pub fn rod_state(&self, state: &SystemState, rod: usize) -> RodState {
+        let r = &self.rods[rod];
+        state.rod_state(r.at.node, r.at.element, r.n_elements())
+    }
+
+    /// Overwrite rod `rod`'s positions, velocities, frames and angular velocities in `state`
+    /// (e.g. an initial perturbation). Errors on a wrong size or non-finite / non-orthonormal
+    /// input; held ends keep their held pose (it is re-applied at the next step).
+    pub fn set_rod_state(
+        &self,
+        state: &mut SystemState,
+        rod: usize,
+        s: &RodState,
+    ) -> Result<(), ModelError> {
+        let r = &self.rods[rod];
+        check_state(&r.model, s)?;
+        state.write_rod(r.at.node, r.at.element, s);
+        Ok(())
+    }
+
+    /// Largest natural frequency estimate of the system [rad/s]: the rods' (spec §11) and each
+    /// joint's spring on the two end masses and inertias.
+    pub fn max_frequency(&self) -> f64 {
+        let mut w: f64 = self
+            .rods
+            .iter()
+            .map(|r| r.model.max_frequency())
+            .fold(0.0, f64::max);
+        for j in &self.joints {
+            let ends = [j.first, j.second];
+            let mut inv_m = 0.0;
+            let mut inv_j: f64 = 0.0;
+            for e in ends {
+                let m = &self.rods[e.rod].model;
+                inv_m += m.inv_node_mass[e.side.node(m.n_elements)];
+                let ii = m.inv_inertia[e.side.element(m.n_elements)];
+                inv_j += ii[0].max(ii[1]).max(ii[2]);
+            }
+            let p = &j.params;
+            let w2 = (p.stiffness * inv_m).max(p.rotational_stiffness * inv_j);
+            w = w.max(w2.sqrt());
+        }
+        w
+    }
+
+    /// Largest stable time step of position Verlet for this system, 2/ω̂_max [s] (spec §11).
+    pub fn stable_dt(&self) -> f64 {
+        2.0 / self.max_frequency()
+    }
+}
+
+pub(crate) fn check_rest(sigma: &[Vec3], kappa: &[Vec3], n: usize) -> Result<(), ModelError> {
+    if sigma.len() != n {
+        return Err(ModelError::BadLength {
+            field: "rest_sigma",
+            len: sigma.len(),
+            expected: n,
+        });
+    }
+    if kappa.len() != n - 1 {
+        return Err(ModelError::BadLength {
+            field: "rest_kappa",
+            len: kappa.len(),
+            expected: n - 1,
+        });
+    }
+    for v in sigma {
+        finite_vec("rest_sigma", *v)?;
+    }
+    for v in kappa {
+        finite_vec("rest_kappa", *v)?;
+    }
+    Ok(())
+}
+
+/// Check that a rod state fits a model: lengths, finite values, orthonormal frames.
+pub(crate) fn check_state(model: &RodModel, state: &RodState) -> Result<(), ModelError> {
+    let n = model.n_elements;
+    let checks = [
+        ("position", state.position.len(), n + 1),
+        ("velocity", state.velocity.len(), n + 1),
+        ("director", state.director.len(), n),
+        ("omega", state.omega.len(), n),
+    ];
+    for (field, len, expected) in checks {
+        if len != expected {
+            return Err(ModelError::BadLength {
+                field,
+                len,
+                expected,
+            });
+        }
+    }
+    for (field, arr) in [
+        ("position", &state.position),
+        ("velocity", &state.velocity),
+        ("omega", &state.omega),
+    ] {
+        for v in arr.iter() {
+            finite_vec(field, *v)?;
+        }
+    }
+    for q in &state.director {
+        if q.iter().flatten().any(|v| !v.is_finite()) || orthonormality_defect(q) > 1e-9 {
+            return Err(ModelError::BadVector {
+                field: "director",
+                value: q[0],
+                reason: "every director matrix must be finite and orthonormal to 1e-9",
+            });
+        }
+    }
+    // Coincident neighbouring nodes give an element of zero length (1/l in every kernel).
+    for i in 0..n {
+        let d = crate::math::sub(state.position[i + 1], state.position[i]);
+        if crate::math::dot(d, d) == 0.0 {
+            return Err(ModelError::CountOutOfRange {
+                field: "position (coincident neighbouring nodes: an element of zero length)",
+                value: i,
+                range: "no two neighbouring nodes at the same point",
+            });
+        }
+    }
+    Ok(())
+}
+
+/// One rod to put into a system.
+#[derive(Debug, Clone)]
+pub struct RodSpec {
+    /// Name, unique in the system.
+    pub name: String,
+    /// Model (shared when the same `Arc` is given to several rods).
+    pub model: Arc<RodModel>,
+    /// Initial state.
+    pub state: RodState,
+    /// Base end condition.
+    pub base: EndCondition,
+    /// Tip end condition.
+    pub tip: EndCondition,
+    /// Damping.
+    pub damping: Damping,
+}
+
+impl RodSpec {
+    /// A rod clamped at its base, free at its tip, undamped: the paper's arm's ends.
+    pub fn cantilever(name: &str, model: Arc<RodModel>, state: RodState) -> Self {
+        Self {
+            name: name.to_string(),
+            model,
+            state,
+            base: EndCondition::Clamped,
+            tip: EndCondition::Free,
+            damping: Damping::default(),
+        }
+    }
+}
+
+/// Assembles rods and joints into a system and its initial state.
+#[derive(Debug, Clone)]
+pub struct SystemBuilder {
+    settings: Settings,
+    rods: Vec<RodSpec>,
+    joints: Vec<Joint>,
+}
+
+impl SystemBuilder {
+    /// An empty system with these settings.
+    pub fn new(settings: Settings) -> Self {
+        Self {
+            settings,
+            rods: Vec::new(),
+            joints: Vec::new(),
+        }
+    }
+
+    /// Add a rod; returns its index.
+    pub fn rod(&mut self, spec: RodSpec) -> usize {
+        self.rods.push(spec);
+        self.rods.len() - 1
+    }
+
+    /// Add a joint between two rod ends (by index).
+    pub fn joint(&mut self, joint: Joint) {
+        self.joints.push(joint);
+    }
+
+    /// Validate everything and build the system and its state (at the rods' initial states,
+    /// t = 0). Held ends keep the pose they have in the initial state; joints take their rest
+    /// rotation from it. Errors name the first bad input.
+    pub fn build(self) -> Result<(RodSystem, SystemState), ModelError> {
+        self.settings.validate()?;
+        if self.rods.is_empty() {
+            return Err(ModelError::CountOutOfRange {
+                field: "rods",
+                value: 0,
+                range: "[1, inf)",
+            });
+        }
+        let mut state = SystemState::empty();
+        let mut rods = Vec::with_capacity(self.rods.len());
+        let (mut rest_sigma, mut rest_kappa) = (Vec::new(), Vec::new());
+        let mut at = Offsets::ZERO;
+        for (i, spec) in self.rods.iter().enumerate() {
+            if self.rods[..i].iter().any(|o| o.name == spec.name) {
+                return Err(ModelError::DuplicateName {
+                    field: "rod.name",
+                    name: spec.name.clone(),
+                });
+            }
+            let m = &spec.model;
+            let n = m.n_elements;
+            check_state(m, &spec.state)?;
+            spec.damping.validate()?;
+            for c in [&spec.base, &spec.tip] {
+                if let EndCondition::Driven(motion) = c {
+                    motion.validate()?;
+                }
+            }
+            let pose = |side: Side| (spec.state.position[side.node(n)], spec.state.director[side.element(n)]);
+            let (bx, bq) = pose(Side::Base);
+            let (tx, tq) = pose(Side::Tip);
+            rods.push(Rod {
+                name: spec.name.clone(),
+                model: Arc::clone(m),
+                base: End::new(spec.base.clone(), bx, bq),
+                tip: End::new(spec.tip.clone(), tx, tq),
+                damping: spec.damping,
+                at,
+            });
+            state.push_rod(&spec.state);
+            rest_sigma.extend_from_slice(&m.rest_sigma);
+            rest_kappa.extend_from_slice(&m.rest_kappa);
+            at = Offsets {
+                node: at.node + n + 1,
+                element: at.element + n,
+                interior: at.interior + n - 1,
+            };
+        }
+        let mut joints = self.joints;
+        for j in &mut joints {
+            for e in [j.first, j.second] {
+                if e.rod >= rods.len() {
+                    return Err(ModelError::CountOutOfRange {
+                        field: "joint.rod",
+                        value: e.rod,
+                        range: "[0, number of rods - 1]",
+                    });
+                }
+            }
+            if j.first == j.second {
+                return Err(ModelError::BadVector {
+                    field: "joint",
+                    value: [j.first.rod as f64, 0.0, 0.0],
+                    reason: "a joint joins two different rod ends",
+                });
+            }
+            j.params.validate()?;
+            let frame = |e: crate::joints::JointEnd| -> Mat3 {
+                let r = &rods[e.rod];
+                state.director.get(r.at.element + e.side.element(r.n_elements()))
+            };
+            let (q1, q2) = (frame(j.first), frame(j.second));
+            j.set_rest(&q1, &q2)?;
+        }
+        let system = RodSystem {
+            settings: self.settings,
+            n_nodes: at.node,
+            n_elements: at.element,
+            n_interior: at.interior,
+            rods,
+            joints,
+            loads: Vec::new(),
+            obstacles: Vec::new(),
+            contact: ContactParams::default(),
+            rest_sigma,
+            rest_kappa,
+            rest_changes: Vec::new(),
+        };
+        Ok((system, state))
+    }
+}
+
