@@ -4,18 +4,21 @@
 //! long enough that the fixed costs —
 //! writer thread start, spool files, the final zip assembly — weigh as in a real run):
 //! - `step_only`: the stepper loop alone;
-//! - `record_npz`: the same loop with the recorder (guard check, energies, frame copy, strains and
-//!   compression on the writer thread) and `trajectory.npz` written at the end;
-//! - `whole_run/100`: `runner::run` with everything (npz, summary.json, scenario.toml, figures).
+//! - `record_npz`: the run pipeline without figures: the same loop with the recorder (guard
+//!   check, energies, frame copy, strains and compression on the writer thread) and
+//!   `trajectory.npz`, `summary.json`, `scenario.toml` written at the end;
+//! - `whole_run/100`: `pipeline::run` with everything (npz, summary.json, scenario.toml, figures).
 //!
 //! Setup (scenario parsing, model building) is outside the timed closures except in `whole_run`.
 #![allow(missing_docs)] // criterion's macros generate undocumented items
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use octoarm::build::build_system;
+use octoarm::figures::CliFigures;
 use octoarm::output::OutputDir;
-use octoarm::recorder::Recorder;
-use octoarm::runner::{self, build_simulation, step_loop, RunOptions};
+use octoarm::pipeline::{self, RunOptions};
 use octoarm::scenario::Scenario;
+use octoarm_physics::Simulation;
 use std::path::Path;
 use std::time::Duration;
 
@@ -38,11 +41,13 @@ fn bench_recording(c: &mut Criterion) {
     let tmp = tempfile::tempdir().unwrap();
     for n in [50usize, 100, 200] {
         let scn = scenario(n);
-        let cfg = &scn.config;
-        let steps = cfg.n_steps();
+        let steps = scn.config.n_steps();
         group.bench_with_input(BenchmarkId::new("step_only", n), &n, |b, _| {
             b.iter_batched(
-                || build_simulation(&scn).unwrap(),
+                || {
+                    let (system, state) = build_system(&scn).unwrap();
+                    Simulation::from_parts(system, state)
+                },
                 |mut sim| {
                     for _ in 0..steps {
                         sim.step().unwrap();
@@ -53,22 +58,19 @@ fn bench_recording(c: &mut Criterion) {
             );
         });
         let dir = tmp.path().join(format!("rec{n}"));
-        std::fs::create_dir_all(&dir).unwrap();
         group.bench_with_input(BenchmarkId::new("record_npz", n), &n, |b, _| {
             b.iter_batched(
                 || {
-                    let sim = build_simulation(&scn).unwrap();
-                    let rec = Recorder::new(&sim.model, cfg.n_frames() as usize, &dir).unwrap();
-                    (sim, rec)
+                    (
+                        pipeline::prepare(&scn).unwrap(),
+                        OutputDir::prepare(&dir).unwrap(),
+                    )
                 },
-                |(mut sim, mut rec)| {
-                    sim.check().unwrap();
-                    rec.record(&sim).unwrap();
-                    let failure =
-                        step_loop(&mut sim, steps, cfg.save_every(), &mut rec, |_, _| {}).unwrap();
-                    assert!(failure.is_none());
-                    rec.finish(&dir.join("trajectory.npz")).unwrap();
-                    sim
+                |(prepared, out)| {
+                    let report =
+                        pipeline::run(&scn, prepared, out, &RunOptions::default()).unwrap();
+                    assert!(report.failure.is_none());
+                    report.steps
                 },
                 criterion::BatchSize::LargeInput,
             );
@@ -77,13 +79,19 @@ fn bench_recording(c: &mut Criterion) {
     let scn = scenario(100);
     let out = tmp.path().join("whole");
     group.bench_function(BenchmarkId::new("whole_run", 100), |b| {
+        let opts = RunOptions {
+            progress: None,
+            figures: Some(&CliFigures),
+        };
         b.iter(|| {
-            runner::run(
+            pipeline::run(
                 &scn,
+                pipeline::prepare(&scn).unwrap(),
                 OutputDir::prepare(&out).unwrap(),
-                RunOptions::default(),
+                &opts,
             )
             .unwrap()
+            .steps
         });
     });
     group.finish();

@@ -105,18 +105,27 @@ fn measure(
                 return (format!("the run has no segment {k}"), None);
             };
             let bound = a.max.unwrap_or(f64::INFINITY);
+            // The claim is about the segment up to start + bound (or the next target's start):
+            // undecided until the run has got there. The last segment ends with the run, which a
+            // shortened run ends early.
+            let last = k + 1 == summary.segments.len();
+            let horizon = if !bound.is_finite() {
+                g.end
+            } else if last {
+                g.start + bound
+            } else {
+                (g.start + bound).min(g.end)
+            };
+            if !reached(horizon) {
+                return (short(horizon), None);
+            }
             match g.settling_time {
-                Some(s) if g.start > 0.0 => (
+                Some(s) => (
                     format!("{:.3} s", s - g.start),
                     Some(within(s - g.start, a)),
                 ),
-                Some(s) => (format!("{s:.3} s"), Some(within(s, a))),
-                None if end >= g.end - 1e-9 => ("never settles".into(), Some(false)),
-                None if end > g.start + bound => (
-                    format!("not settled by {} s", g.start + bound),
-                    Some(false),
-                ),
-                None => (short(g.start + bound), None),
+                None if end >= g.end - 1e-9 && !last => ("never settles".into(), Some(false)),
+                None => (format!("not settled by {horizon} s"), Some(false)),
             }
         }
         Q::MaxPenetration => {

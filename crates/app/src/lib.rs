@@ -56,9 +56,14 @@ pub fn advisories(
     let cfg = &scn.config;
     let mut out = scn.notes.clone();
     let (dt, limit) = (cfg.time.dt, system.stable_dt());
+    let whose = if system.rods().len() == 1 {
+        "rod's"
+    } else {
+        "system's"
+    };
     if dt > limit {
         out.push(format!(
-            "time.dt = {dt:e} s exceeds this system's stable limit {limit:.3e} s: the run will become unstable; \
+            "time.dt = {dt:e} s exceeds this {whose} stable limit {limit:.3e} s: the run will become unstable; \
              set dt ≤ {:.2e} s",
             0.2 * limit
         ));

@@ -414,6 +414,7 @@ fn summary_json(
     out.insert("program".into(), json!("octoarm"));
     out.insert("version".into(), json!(env!("CARGO_PKG_VERSION")));
     out.insert("scenario".into(), json!(scn.path.display().to_string()));
+    out.insert("name".into(), json!(scn.name));
     out.insert("description".into(), json!(cfg.description));
     out.insert("status".into(), json!(status));
     out.insert("steps".into(), json!(steps));
@@ -436,17 +437,10 @@ fn summary_json(
     out.insert("frames".into(), json!(frames));
     out.insert("final_time".into(), json!(final_time));
     out.insert("controlled".into(), json!(cfg.controller.is_some()));
-    let mut arrays = Map::new();
-    for (k, v) in recorded {
-        match (k.as_str(), v) {
-            ("arrays" | "series_arrays", Value::Object(m)) => arrays.extend(m),
-            (_, v) => {
-                out.insert(k, v);
-            }
-        }
-    }
     out.insert("failure".into(), json!(failure_json));
     out.insert("notes".into(), json!(scn.notes));
-    out.insert("arrays".into(), Value::Object(arrays));
+    // The recorders' keys: rods, final figures, control figures, acceptance, and `arrays`
+    // (each trajectory.npz member's shape, unit and domain) and `series_arrays`.
+    out.extend(recorded);
     Value::Object(out)
 }

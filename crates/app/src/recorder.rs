@@ -422,10 +422,7 @@ impl Recorder for TrajectoryRecorder {
             map.insert("final_energies".into(), r["final_energies"].clone());
         }
         map.insert("rods".into(), Value::Array(rods));
-        map.insert(
-            "arrays".into(),
-            json!({ "trajectory.npz": Value::Object(arrays) }),
-        );
+        map.insert("arrays".into(), Value::Object(arrays));
         Ok(map)
     }
 }

@@ -289,10 +289,10 @@ impl Recorder for SeriesRecorder {
         );
         map.insert(
             "series_arrays".into(),
-            json!({"series.npz": ["time", "tip", "target", "distance", "hamiltonian", "kinetic",
+            json!(["time", "tip", "target", "distance", "hamiltonian", "kinetic",
                 "shaped_potential", "contact_energy", "control_force_effort",
                 "control_couple_effort", "control_power", "penetration", "design_epoch",
-                "obstacles"]}),
+                "obstacles"]),
         );
         self.summary = Some(summary);
         Ok(map)

@@ -300,7 +300,7 @@ fn unknown_key_names_the_nearest_valid_key() {
         &[],
         &[
             "bad.toml:7:1: unknown key `densty` in [rod]; did you mean `density`?",
-            "allowed: n_elements, length",
+            "allowed: name, n_elements, length",
         ],
     );
 }
@@ -327,7 +327,7 @@ fn unknown_load_kind_names_the_nearest_valid_kind() {
         &[
             "bad.toml:20:8:",
             "unknown kind \"tip_forse\"; did you mean `tip_force`?",
-            "gravity, tip_force, uniform_force, tip_couple",
+            "gravity, tip_force, node_force, uniform_force, tip_couple",
         ],
     );
 }
@@ -408,18 +408,33 @@ fn save_interval_below_dt() {
 }
 
 #[test]
-fn ramp_only_for_point_loads() {
+fn ramp_time_must_be_non_negative_and_exclusive_with_a_schedule() {
     let text = format!(
-        "{TINY}\n[[load]]\nkind = \"gravity\"\nvalue = [0.0, -9.81, 0.0]\nramp_time = 0.1\n"
+        "{TINY}\n[[load]]\nkind = \"gravity\"\nvalue = [0.0, -9.81, 0.0]\nramp_time = -0.1\n"
     );
     rejects(
         "ramp",
         &text,
         &[],
-        &[
-            "bad.toml:26:1: load[1].ramp_time = 0.1 is outside the allowed range",
-            "tip_force",
-        ],
+        &["bad.toml:26:1: load[1].ramp_time = -0.1 is outside the allowed range [0, inf)"],
+    );
+    let text = format!(
+        "{TINY}\n[[load]]\nkind = \"gravity\"\nvalue = [0.0, -9.81, 0.0]\nramp_time = 0.1\nschedule = {{ kind = \"step\", time = 0.5 }}\n"
+    );
+    rejects(
+        "ramp and schedule",
+        &text,
+        &[],
+        &["load[1].ramp_time: give either ramp_time or schedule, not both"],
+    );
+    let text = format!(
+        "{TINY}\n[[load]]\nkind = \"gravity\"\nvalue = [0.0, -9.81, 0.0]\nschedule = {{ kind = \"ramp\" }}\n"
+    );
+    rejects(
+        "ramp without duration",
+        &text,
+        &[],
+        &["load[1].schedule.duration: missing: kind = \"ramp\" needs it"],
     );
 }
 

@@ -15,10 +15,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for _ in 0..10 {
         sim.run(10_000)?;
-        let tip = sim.state.tip();
+        let tip = sim.tip();
         println!(
             "{:6.2} {:10.5} {:10.5} {:12.4e}",
-            sim.state.time,
+            sim.time(),
             tip[0],
             tip[1],
             sim.energies().total()

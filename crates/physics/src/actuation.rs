@@ -14,6 +14,7 @@ use crate::store::Vec3s;
 /// The actuation input of a system, held constant over each step. Starts (and `clear`s) at zero
 /// with both parts off; writing through `internal_mut` / `external_mut` switches a part on.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Actuation {
     internal_stress: Vec<Vec3>,
     internal_couple: Vec<Vec3>,
@@ -135,6 +136,7 @@ impl Actuation {
 /// nodal forces and element couples the actuation produced in the last step (for effort and
 /// power diagnostics).
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub(crate) struct ActuationScratch {
     elem_force: Vec<Vec3>,
     pad_couple: Vec<Vec3>,

@@ -10,6 +10,7 @@ use crate::state::RodAccess;
 
 /// A rigid sphere, fixed or moving with a prescribed velocity.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Sphere {
     /// Centre [m] at t = 0.
     pub center: Vec3,
@@ -49,6 +50,7 @@ impl Sphere {
 
 /// Penalty parameters: k_j = β E Â_j / l̂_j, c_j = 2 ζ √(k_j m̄_j).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct ContactParams {
     /// Stiffness factor β (default 1; up to ~20 for the arm at dt = 1e-5 s).
     pub beta: f64,

@@ -8,6 +8,7 @@ use crate::model::RodModel;
 
 /// Damping of one rod. Both rate terms default to 0; when both are non-zero their decay rates add.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Damping {
     /// Mass-proportional rate ν_d [1/s]: every node and element loses velocity at this rate
     /// (F = −ν_d m v, C = −ν_d (J/e) ω). The paper-reproduction default is 10 s⁻¹.
@@ -21,6 +22,7 @@ pub struct Damping {
 
 /// PyElastica's analytical linear damper (spec §8b), applied as v ← f v, ω ← f ω after the kick.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum AnalyticalDamper {
     /// Constant rate ν [1/s] on every DOF.
     Uniform {
@@ -102,6 +104,7 @@ pub(crate) fn phi1(z: f64) -> f64 {
 /// Precomputed exponential-kick factors (spec eq. 8.3), v ← decay v + kick a, for every node and
 /// element of a system (system order), refreshed per rod when dt or its damping changes.
 #[derive(Debug, Clone, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub(crate) struct KickFactors {
     /// Per rod: (dt, rate, gamma) the rod's factors were computed for.
     pub keys: Vec<(f64, f64, f64)>,

@@ -9,6 +9,7 @@ use crate::math::{cross, dot, mat_mul_t, mat_vec, norm, Mat3, Vec3, IDENTITY};
 
 /// Which end of a rod.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Side {
     /// Node 0 and element 0.
     Base,
@@ -44,6 +45,7 @@ impl Side {
 
 /// How one end of a rod is held.
 #[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum EndCondition {
     /// Nothing is enforced (zero force and couple: the natural condition).
     #[default]
@@ -85,6 +87,7 @@ impl EndCondition {
 /// between samples and held after the last (cosseratbench's `Motion`). Angles beyond π are
 /// allowed (a rotation vector of 10 rad about d3 is more than a turn and a half of twist).
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Motion {
     /// Sample times [s], starting at 0, strictly increasing, at least two.
     pub times: Vec<f64>,
@@ -244,6 +247,7 @@ fn left_jacobian(r: Vec3, u: Vec3) -> Vec3 {
 
 /// One end of one rod with its held (or starting) pose, as the stepper uses it.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct End {
     /// The condition.
     pub condition: EndCondition,

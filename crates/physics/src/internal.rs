@@ -13,6 +13,7 @@ use crate::store::Vec3s;
 /// step. Element fields are in system element order, interior fields in system interior order
 /// (rod r's n − 1 points follow rod r − 1's), node fields in system node order.
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct InternalLoads {
     /// Unit tangent t [-], lab frame, per element.
     pub tangent: Vec3s,
@@ -46,6 +47,7 @@ pub struct InternalLoads {
 
 /// Where one rod's entries start in each index domain of a system.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Offsets {
     /// First node.
     pub node: usize,

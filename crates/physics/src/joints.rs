@@ -12,6 +12,7 @@ use crate::model::RodModel;
 
 /// What a joint constrains.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum JointKind {
     /// Relative position only (a ball joint: PyElastica's FreeJoint).
     Free,
@@ -40,6 +41,7 @@ impl JointKind {
 
 /// One end of a joint: a rod and which of its ends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct JointEnd {
     /// Index of the rod in the system.
     pub rod: usize,
@@ -49,6 +51,7 @@ pub struct JointEnd {
 
 /// Spring and damper constants of a joint.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct JointParams {
     /// Translational stiffness k [N/m]: F = k (x₂ − x₁) on the first end node.
     pub stiffness: f64,
@@ -97,6 +100,7 @@ impl JointParams {
 
 /// A joint between two rod ends of a system.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Joint {
     /// What it constrains.
     pub kind: JointKind,

@@ -13,6 +13,7 @@ use crate::store::Vec3s;
 /// External loads of one force evaluation for a whole system: nodal forces (lab) and element
 /// couples (material), in the system's node and element order.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct ExternalLoads {
     /// Force on each node [N], lab frame.
     pub force: Vec3s,
@@ -38,6 +39,7 @@ impl ExternalLoads {
 
 /// One external load on one rod (its value at schedule factor 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Load {
     /// Uniform gravitational acceleration g [m/s²]: F_i += m_i g.
     Gravity {
@@ -221,6 +223,7 @@ impl Load {
 
 /// A load on one rod of a system with its schedule.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct AppliedLoad {
     /// Index of the rod in the system.
     pub rod: usize,

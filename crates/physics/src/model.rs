@@ -10,6 +10,7 @@ use std::f64::consts::PI;
 
 /// Material constants of a rod (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Material {
     /// Mass density ρ [kg/m³], > 0.
     pub density: f64,
@@ -39,6 +40,7 @@ impl Material {
 /// Domains: `node` (n + 1), `element` (n), `interior` Voronoi point (n − 1, between elements k
 /// and k + 1, at node k + 1).
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct RodModel {
     /// Number of elements n ≥ 2.
     pub n_elements: usize,

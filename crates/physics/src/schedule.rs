@@ -6,6 +6,7 @@ use crate::error::ModelError;
 
 /// A factor of simulated time t [s].
 #[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Schedule {
     /// f = 1.
     #[default]

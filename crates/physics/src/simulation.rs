@@ -19,6 +19,7 @@ use std::sync::Arc;
 
 /// A rod system with its state, actuation and workspace, stepped by the one stepper.
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Simulation {
     /// Rods, joints, loads, obstacles, rest strains in force and settings.
     pub system: RodSystem,

@@ -10,6 +10,7 @@ use crate::store::{Mat3s, Vec3s};
 /// Positions, velocities, frames and angular velocities of one rod at one instant (SI units),
 /// as arrays of vectors: the form in which rods are built, handed to controllers and recorded.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct RodState {
     /// Simulated time t [s].
     pub time: f64,
@@ -52,6 +53,7 @@ impl RodState {
 /// The state of a whole rod system. Rod r occupies the node range and element range its
 /// `Rod` entry in the system gives; there are no padding entries between rods.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SystemState {
     /// Simulated time t = `origin + step · dt` [s] (computed from the step count, never summed).
     pub time: f64,

@@ -22,6 +22,7 @@ use crate::system::RodSystem;
 const ENERGY_WINDOW: usize = 128;
 
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 struct Guard {
     reference_energy: f64,
     window: Vec<f64>,
@@ -33,6 +34,7 @@ struct Guard {
 /// Scratch of the stepper for one system: internal and external loads of the last force
 /// evaluation, kick factors, actuation results, guard history. Allocated once by `new`.
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Workspace {
     /// Internal loads and strains of the last force evaluation (at the mid-step state).
     pub internal: InternalLoads,

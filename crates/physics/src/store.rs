@@ -7,6 +7,7 @@ use crate::math::{Mat3, Vec3};
 
 /// A field of 3-vectors stored by component: `x[i]`, `y[i]`, `z[i]` are entry i.
 #[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Vec3s {
     /// First components.
     pub x: Vec<f64>,
@@ -106,6 +107,7 @@ impl Vec3s {
 /// A field of 3×3 matrices stored by entry: `m[3 r + c][j]` is row r, column c of matrix j. For
 /// directors, row r is d_{r+1} in lab components.
 #[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Mat3s {
     /// The nine entry arrays, row-major.
     pub m: [Vec<f64>; 9],

@@ -19,6 +19,7 @@ use std::sync::Arc;
 
 /// Numerical settings of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Settings {
     /// Time step Δt [s], > 0. The paper uses 1e-5 s. The only copy of dt.
     pub dt: f64,
@@ -73,6 +74,7 @@ impl Settings {
 
 /// One rod of a system.
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Rod {
     /// Name (unique in the system; used in output keys and messages).
     pub name: String,
@@ -125,6 +127,7 @@ impl Rod {
 /// A scheduled change of one rod's rest strains: the rest strains in force at time t are the
 /// system's `rest_sigma` / `rest_kappa` plus f(t) times these.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct RestChange {
     /// Index of the rod.
     pub rod: usize,
@@ -139,6 +142,7 @@ pub struct RestChange {
 /// Everything about a system that the stepper reads: rods, joints, loads, obstacles, contact
 /// parameters, the rest strains in force, and the settings. Build it with `SystemBuilder`.
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct RodSystem {
     /// Numerical settings (change through `set_settings`, which validates).
     pub(crate) settings: Settings,

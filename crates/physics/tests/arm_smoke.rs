@@ -52,11 +52,11 @@ fn curl(shear_coefficient: f64, damping: Damping, times: &[f64]) -> (Vec<f64>, f
     for &t in times {
         let steps = ((t - sim.state.time) / dt).round() as u64;
         sim.run(steps).unwrap();
-        let tip = sim.state.tip();
+        let tip = sim.tip();
         out.push((tip[0] - arc[n][0]).hypot(tip[1] - arc[n][1]) / L0);
     }
     let worst = sim
-        .state
+        .rod_state()
         .position
         .iter()
         .zip(&arc)

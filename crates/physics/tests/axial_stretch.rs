@@ -23,7 +23,7 @@
 //! ~e^-30 ≈ 1e-13 of δ, far below the 1e-9 tolerance.
 
 use octoarm_physics::{
-    AnalyticalDamper, Damping, Load, Material, Settings, Simulation, StraightRod,
+    AnalyticalDamper, Damping, Load, Material, RodAccess, Settings, Simulation, StraightRod,
 };
 
 const LENGTH: f64 = 3.0;
@@ -52,7 +52,8 @@ fn run(damping: Damping, label: &str) {
         sim.step().unwrap();
         // Lateral components must be exact zeros (sign of zero irrelevant): nothing mixes the
         // axial data into y or z.
-        for (x, v) in sim.state.position.iter().zip(&sim.state.velocity) {
+        let s = sim.view();
+        for (x, v) in (0..=N).map(|i| (s.position(i), s.velocity(i))) {
             assert!(
                 x[1] == 0.0 && x[2] == 0.0 && v[1] == 0.0 && v[2] == 0.0,
                 "{label}: lateral motion {x:?} {v:?}"
@@ -63,15 +64,15 @@ fn run(damping: Damping, label: &str) {
 
     let e = 1.0 / (1.0 - p / ea);
     let delta_exact = p * LENGTH / (ea - p);
-    let delta = sim.state.tip()[0] - LENGTH;
+    let state = sim.rod_state();
+    let delta = sim.tip()[0] - LENGTH;
     let rel = (delta / delta_exact - 1.0).abs();
     // Uniform strain: node i sits at i l̂ e.
     let l = LENGTH / N as f64;
     let node_err = (0..=N)
-        .map(|i| (sim.state.position[i][0] - i as f64 * l * e).abs())
+        .map(|i| (state.position[i][0] - i as f64 * l * e).abs())
         .fold(0.0, f64::max);
-    let vmax = sim
-        .state
+    let vmax = state
         .velocity
         .iter()
         .map(|v| v[0].abs())

@@ -14,7 +14,7 @@
 //! a message without the field name, the value or the range fails the text assertions.
 
 use octoarm_physics::{
-    Boundary, ContactParams, Damping, Load, Material, ModelError, RodModel, Settings, Simulation,
+    ContactParams, Damping, Load, Material, ModelError, RodModel, Schedule, Settings, Simulation,
     Sphere, StraightRod,
 };
 
@@ -94,7 +94,7 @@ fn element_count_at_least_two() {
         shear_coefficient: 1.0,
     };
     rejects(
-        RodModel::from_elements(&[0.1], &[0.01], m, Boundary::Free),
+        RodModel::from_elements(&[0.1], &[0.01], m),
         &["n_elements = 1", "[2, inf)"],
     );
     assert!(StraightRod::paper_arm().with_elements(2).build().is_ok());
@@ -110,16 +110,16 @@ fn per_element_arrays_are_checked() {
     };
     for v in BAD_NUMBERS {
         rejects(
-            RodModel::from_elements(&[0.1, v, 0.1], &[0.01; 3], m, Boundary::Free),
+            RodModel::from_elements(&[0.1, v, 0.1], &[0.01; 3], m),
             &[&format!("rest_length = {}", shown(v)), POSITIVE],
         );
         rejects(
-            RodModel::from_elements(&[0.1; 3], &[0.01, 0.01, v], m, Boundary::Free),
+            RodModel::from_elements(&[0.1; 3], &[0.01, 0.01, v], m),
             &[&format!("radius = {}", shown(v)), POSITIVE],
         );
     }
     rejects(
-        RodModel::from_elements(&[0.1; 3], &[0.01; 2], m, Boundary::Free),
+        RodModel::from_elements(&[0.1; 3], &[0.01; 2], m),
         &["radius", "length 2", "expected 3"],
     );
     let (mut model, _) = StraightRod::paper_arm().build().unwrap();
@@ -231,17 +231,20 @@ fn loads_damping_and_obstacles_are_checked() {
         sim.add_load(Load::NodeForce {
             node: 101,
             force: [0.0; 3],
-            ramp_time: 0.0,
         }),
         &["node = 101", "[0, n_elements]"],
     );
+    // A ramp is a schedule now; its duration must be positive (the old `ramp_time = 0` meant "no
+    // ramp", which is `Schedule::Constant`).
     rejects(
-        sim.add_load(Load::NodeForce {
-            node: 100,
-            force: [0.0; 3],
-            ramp_time: -1.0,
-        }),
-        &["ramp_time = -1", "[0, inf), finite"],
+        sim.add_scheduled_load(
+            Load::NodeForce {
+                node: 100,
+                force: [0.0; 3],
+            },
+            Schedule::Ramp { duration: -1.0 },
+        ),
+        &["schedule.duration = -1", POSITIVE],
     );
     rejects(
         sim.add_load(Load::Gravity {
@@ -274,6 +277,6 @@ fn loads_damping_and_obstacles_are_checked() {
         &["obstacle.center", "NaN", "finite"],
     );
     // Nothing bad was stored.
-    assert!(sim.loads.is_empty() && sim.obstacles.is_empty());
-    assert_eq!(sim.damping, Damping::default());
+    assert!(sim.system.loads().is_empty() && sim.system.obstacles().is_empty());
+    assert_eq!(sim.damping(), Damping::default());
 }

@@ -21,7 +21,7 @@ mod common;
 
 use common::set_case_d_velocities;
 use octoarm_physics::{
-    energies, Damping, Load, RodModel, RodState, Settings, Simulation, StraightRod,
+    energies, Damping, Load, RodAccess, RodModel, RodState, Settings, Simulation, StraightRod,
 };
 
 /// The spec's initial condition (§13 d) on the paper's straight arm.
@@ -129,13 +129,8 @@ fn balance_run(energy_consistent: bool, steps: u32) -> (f64, f64, f64, f64) {
     // 1e-6 and the default model's 1.3e-4 — a property of the model, spec §4, not of the books.)
     sim.set_damping(Damping::mass_proportional(2.0)).unwrap();
     let p = [0.0, 2e-4, -1e-4];
-    sim.add_load(Load::NodeForce {
-        node,
-        force: p,
-        ramp_time: 0.0,
-    })
-    .unwrap();
-    let x0 = sim.state.position[node];
+    sim.add_load(Load::NodeForce { node, force: p }).unwrap();
+    let x0 = sim.view().position(node);
     let h0 = sim.energies().total();
     let mut worst_work: f64 = 0.0;
     let (mut max_w, mut max_d): (f64, f64) = (0.0, 0.0);
@@ -145,7 +140,7 @@ fn balance_run(energy_consistent: bool, steps: u32) -> (f64, f64, f64, f64) {
         if k % 50 == 0 {
             let w = sim.external_work();
             let d = sim.dissipated_energy();
-            let x = sim.state.position[node];
+            let x = sim.view().position(node);
             let w_exact = p[0] * (x[0] - x0[0]) + p[1] * (x[1] - x0[1]) + p[2] * (x[2] - x0[2]);
             worst_work = worst_work.max((w - w_exact).abs());
             max_w = max_w.max(w.abs());

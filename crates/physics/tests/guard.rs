@@ -20,18 +20,16 @@
 //! assertions; a suggested dt that is only halved (not capped at 0.2 Δt_crit) fails (i).
 
 use octoarm_physics::{
-    AnalyticalDamper, Damping, Load, Material, Settings, Simulation, StepError, StraightRod,
+    AnalyticalDamper, Damping, Load, Material, Schedule, Settings, Simulation, StepError,
+    StraightRod,
 };
 
 fn all_finite(sim: &Simulation) -> bool {
     let s = &sim.state;
-    s.position
-        .iter()
-        .chain(&s.velocity)
-        .chain(&s.omega)
-        .flatten()
-        .all(|v| v.is_finite())
-        && s.director.iter().flatten().flatten().all(|v| v.is_finite())
+    s.position.all_finite()
+        && s.velocity.all_finite()
+        && s.omega.all_finite()
+        && s.director.all_finite()
 }
 
 /// Step until the guard fires (from `step` or from `check` after every step), at most
@@ -106,7 +104,7 @@ fn time_step_above_stability_limit_is_caught() {
         )
     };
     let (mut sim, dt) = build();
-    let stable = sim.model.stable_dt();
+    let stable = sim.model().stable_dt();
     let (err, step) = step_until_unstable(&mut sim, 10_000);
     let msg = check_message(&err);
     println!("checked every step: stopped at step {step}: {msg}");
@@ -172,7 +170,7 @@ fn paper_arm_overloaded_at_the_tip_stops_with_the_guard() {
     sim.add_load(Load::tip_force(n, [0.0, f, 0.0])).unwrap();
     sim.run(100_000)
         .expect("a load the arm can carry must not trip the guard");
-    let e_tip = sim.internal.dilatation[n - 1];
+    let e_tip = sim.workspace.internal.dilatation[n - 1];
     let e_static = 1.0 / (1.0 - f / ea_tip);
     println!("tip force 1e-4 N carried: e_99 = {e_tip:.5} (static closed form {e_static:.5})");
     assert!(
@@ -207,19 +205,21 @@ fn caveat_run(energy_consistent: bool, shear_coefficient: f64, dt: f64) -> Resul
         ..Damping::default()
     })
     .unwrap();
-    sim.add_load(Load::ElementCouple {
-        element: 99,
-        couple: [0.0, 0.0, ei / 3.0],
-        ramp_time: 10.0,
-    })
+    sim.add_scheduled_load(
+        Load::ElementCouple {
+            element: 99,
+            couple: [0.0, 0.0, ei / 3.0],
+        },
+        Schedule::Ramp { duration: 10.0 },
+    )
     .unwrap();
     let steps = (12.0 / dt).round() as u64;
     let r = sim.run(steps);
     if r.is_ok() {
-        let tip = sim.state.tip();
+        let tip = sim.tip();
         println!(
             "energy_consistent = {energy_consistent}: bounded to t = {:.2} s, tip {tip:?}",
-            sim.state.time
+            sim.time()
         );
     }
     r

@@ -5,7 +5,7 @@
 //! bit: x_z, v_z and the material components ω1, ω3, κ1, κ3, σ2 are exactly 0.0 (either sign) at
 //! every step of the whole run — with clamped and free ends, every damping path (mass-proportional
 //! and per-length exponential kicks, the uniform/physical analytical dampers), every kind of
-//! external load, sphere obstacles centred at z = 0 in active contact, the controller hook, the
+//! external load, sphere obstacles centred at z = 0 in active contact, the controller actuation, the
 //! energy-consistent correction, and the Björck re-orthonormalisation step of §5 (forced to run by
 //! starting from frames that are orthonormal only to ~1e-10 and checking every 100 steps).
 //! For the same scene rotated by an arbitrary rotation R and translated, the out-of-plane position
@@ -28,22 +28,23 @@ mod common;
 
 use common::{rot, rotation};
 use octoarm_physics::{
-    max_penetration, AnalyticalDamper, Boundary, ContactParams, Damping, Load, Mat3, Material,
-    Settings, Simulation, Sphere, StraightRod, Vec3,
+    max_penetration, AnalyticalDamper, ContactParams, Damping, EndCondition, Load, Mat3, Material,
+    RodAccess, Schedule, Settings, Simulation, Sphere, StraightRod, Vec3,
 };
 use std::f64::consts::PI;
 
 /// Per-step planar checks on the full-step state and on the strains of the last force evaluation.
 fn assert_planar(sim: &Simulation, label: &str) {
     let step = sim.steps();
-    let s = &sim.state;
-    for (i, (x, v)) in s.position.iter().zip(&s.velocity).enumerate() {
+    let s = sim.view();
+    let n = s.n_elements();
+    for (i, (x, v)) in (0..=n).map(|i| (i, (s.position(i), s.velocity(i)))) {
         assert!(
             x[2] == 0.0 && v[2] == 0.0,
             "{label}, step {step}: node {i} x = {x:?}, v = {v:?}"
         );
     }
-    for (j, (q, w)) in s.director.iter().zip(&s.omega).enumerate() {
+    for (j, (q, w)) in (0..n).map(|j| (j, (s.director(j), s.omega(j)))) {
         assert!(
             w[0] == 0.0 && w[2] == 0.0,
             "{label}, step {step}: element {j} omega = {w:?}"
@@ -54,26 +55,26 @@ fn assert_planar(sim: &Simulation, label: &str) {
             "{label}, step {step}: Q_{j} = {q:?}"
         );
     }
-    let loads = &sim.internal;
-    for (j, sg) in loads.sigma.iter().enumerate() {
+    let loads = &sim.workspace.internal;
+    for (j, sg) in common::vecs(&loads.sigma).iter().enumerate() {
         assert!(
             sg[1] == 0.0,
             "{label}, step {step}: element {j} sigma = {sg:?}"
         );
     }
-    for (k, kp) in loads.kappa.iter().enumerate() {
+    for (k, kp) in common::vecs(&loads.kappa).iter().enumerate() {
         assert!(
             kp[0] == 0.0 && kp[2] == 0.0,
             "{label}, step {step}: voronoi {k} kappa = {kp:?}"
         );
     }
-    for (i, f) in loads.force.iter().enumerate() {
+    for (i, f) in common::vecs(&loads.force).iter().enumerate() {
         assert!(
             f[2] == 0.0,
             "{label}, step {step}: node {i} internal force = {f:?}"
         );
     }
-    for (j, t) in loads.torque.iter().enumerate() {
+    for (j, t) in common::vecs(&loads.torque).iter().enumerate() {
         assert!(
             t[0] == 0.0 && t[2] == 0.0,
             "{label}, step {step}: element {j} internal torque = {t:?}"
@@ -118,6 +119,11 @@ struct PlanarRun {
     contact_steps: usize,
 }
 
+/// Whether the rod's surface penetrates an obstacle (at their positions of the current time).
+fn penetrated(sim: &Simulation) -> bool {
+    max_penetration(sim.model(), &sim.view(), sim.system.obstacles(), sim.time()).0 > 0.0
+}
+
 /// Take `steps` steps with `step`, asserting planarity after each, and report what was seen.
 fn run_planar(
     sim: &mut Simulation,
@@ -125,24 +131,24 @@ fn run_planar(
     steps: usize,
     mut step: impl FnMut(&mut Simulation),
 ) -> PlanarRun {
-    let defect0 = max_defect(&sim.state.director);
+    let defect0 = max_defect(&sim.rod_state().director);
     let mut defect_first_check = f64::NAN;
     let mut contact_steps = 0;
     for _ in 0..steps {
         step(sim);
         assert_planar(sim, label);
         if sim.steps() == 100 {
-            defect_first_check = max_defect(&sim.state.director);
+            defect_first_check = max_defect(&sim.rod_state().director);
         }
-        if max_penetration(&sim.model, &sim.state, &sim.obstacles).0 > 0.0 {
+        if penetrated(sim) {
             contact_steps += 1;
         }
     }
-    let defect = max_defect(&sim.state.director);
+    let defect = max_defect(&sim.rod_state().director);
     println!(
         "{label}: {steps} steps, contact in {contact_steps} steps, tip {:?}, frame defect {defect0:.2e} -> \
          {defect_first_check:.2e} (first check) -> {defect:.2e} (end)",
-        sim.state.tip()
+        sim.tip()
     );
     PlanarRun {
         defect0,
@@ -180,32 +186,51 @@ fn cantilever_scene(r: &Mat3, b: Vec3) -> Simulation {
     .unwrap();
     let ez = rot(r, [0.0, 0.0, 1.0]);
     let loads = [
-        Load::tip_force(n, rot(r, [0.0, -15.0, 0.0])),
-        Load::Gravity {
-            acceleration: rot(r, [0.002, -0.01, 0.0]),
-        },
-        Load::UniformForce {
-            force_per_length: rot(r, [0.3, -0.5, 0.0]),
-        },
-        Load::ElementCouple {
-            element: n / 2,
-            couple: [2.0 * ez[0], 2.0 * ez[1], 2.0 * ez[2]],
-            ramp_time: 0.5,
-        },
-        Load::UniformCouple {
-            couple_per_length: [0.3 * ez[0], 0.3 * ez[1], 0.3 * ez[2]],
-        },
-        Load::FollowerCouple {
-            couple_per_length: [0.0, -0.2, 0.0],
-        },
-        Load::NodeForce {
-            node: n / 3,
-            force: rot(r, [1.0, 4.0, 0.0]),
-            ramp_time: 0.2,
-        },
+        (
+            Load::tip_force(n, rot(r, [0.0, -15.0, 0.0])),
+            Schedule::Constant,
+        ),
+        (
+            Load::Gravity {
+                acceleration: rot(r, [0.002, -0.01, 0.0]),
+            },
+            Schedule::Constant,
+        ),
+        (
+            Load::UniformForce {
+                force_per_length: rot(r, [0.3, -0.5, 0.0]),
+            },
+            Schedule::Constant,
+        ),
+        (
+            Load::ElementCouple {
+                element: n / 2,
+                couple: [2.0 * ez[0], 2.0 * ez[1], 2.0 * ez[2]],
+            },
+            Schedule::Ramp { duration: 0.5 },
+        ),
+        (
+            Load::UniformCouple {
+                couple_per_length: [0.3 * ez[0], 0.3 * ez[1], 0.3 * ez[2]],
+            },
+            Schedule::Constant,
+        ),
+        (
+            Load::FollowerCouple {
+                couple_per_length: [0.0, -0.2, 0.0],
+            },
+            Schedule::Constant,
+        ),
+        (
+            Load::NodeForce {
+                node: n / 3,
+                force: rot(r, [1.0, 4.0, 0.0]),
+            },
+            Schedule::Ramp { duration: 0.2 },
+        ),
     ];
-    for load in loads {
-        sim.add_load(load).unwrap();
+    for (load, schedule) in loads {
+        sim.add_scheduled_load(load, schedule).unwrap();
     }
     let place = |c: Vec3| {
         let p = rot(r, c);
@@ -231,39 +256,36 @@ fn cantilever_scene(r: &Mat3, b: Vec3) -> Simulation {
     sim
 }
 
-/// The controller hook adds in-plane forces and d2 couples (time-dependent only, so that the
-/// rotated scene sees the rotated hook).
-fn hook(
-    r: Mat3,
-) -> impl FnMut(
-    &octoarm_physics::RodModel,
-    &octoarm_physics::RodState,
-    &octoarm_physics::InternalLoads,
-    &mut octoarm_physics::ExternalLoads,
-) {
-    move |_, s, _, ext| {
-        let amp = (3.0 * s.time).sin();
-        let f = rot(&r, [0.0, 0.2 * amp, 0.0]);
-        let n = ext.couple.len();
-        for (dst, src) in ext.force[n].iter_mut().zip(f) {
-            *dst += src;
-        }
-        ext.couple[n - 1][1] += 0.05 * amp;
-    }
+/// Time of the force evaluation of the next step, the mid-step time t + Δt/2 [s]: what the
+/// actuation written now is held at (and what schedules are evaluated at).
+fn mid_step_time(sim: &Simulation) -> f64 {
+    sim.state.origin + (sim.state.step as f64 + 0.5) * sim.settings().dt
+}
+
+/// The controller input: an in-plane tip force and a d2 couple on the tip element, written into
+/// the external actuation before a step (time-dependent only, so that the rotated scene sees the
+/// rotated input).
+fn actuate(sim: &mut Simulation, r: &Mat3) {
+    let amp = (3.0 * mid_step_time(sim)).sin();
+    let f = rot(r, [0.0, 0.2 * amp, 0.0]);
+    let n = sim.model().n_elements;
+    let ext = sim.actuation.external_mut();
+    ext.force[n] = f;
+    ext.couple[n - 1] = [0.0, 0.05 * amp, 0.0];
 }
 
 #[test]
 fn planar_cantilever_with_contact_loads_damping_and_bjorck_stays_exactly_planar() {
     let id = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let mut sim = cantilever_scene(&id, [0.0; 3]);
-    let mut hk = hook(id);
     let PlanarRun {
         defect0,
         defect_first_check,
         defect,
         contact_steps,
     } = run_planar(&mut sim, "cantilever", 5000, |sim| {
-        sim.step_with(&mut hk).unwrap()
+        actuate(sim, &id);
+        sim.step().unwrap()
     });
     assert!(contact_steps > 1000, "the scene must exercise contact");
     // The exact rotations preserve a ~1e-10 defect; only the Björck step (quadratic convergence:
@@ -309,16 +331,18 @@ fn planar_arm_with_planar_control_spheres_and_energy_consistent_stays_exactly_pl
         defect,
         contact_steps,
     } = run_planar(&mut sim, "arm", 6000, |sim| {
-        // Planar control through the hook: a force per unit length along e_y and a couple about e_z.
-        sim.step_with(|m, s, _, ext| {
-            for (i, f) in ext.force.iter_mut().enumerate() {
-                f[1] += 1e-4 * m.nodal_rest_length[i] * (20.0 * s.time).cos();
-            }
-            for (j, c) in ext.couple.iter_mut().enumerate() {
-                c[1] += 1e-6 * m.rest_length[j];
-            }
-        })
-        .unwrap()
+        // Planar control through the actuation: a force per unit length along e_y and a couple
+        // about e_z.
+        let t = mid_step_time(sim);
+        let m = &sim.system.rod(0).model;
+        let ext = sim.actuation.external_mut();
+        for (i, f) in ext.force.iter_mut().enumerate() {
+            *f = [0.0, 1e-4 * m.nodal_rest_length[i] * (20.0 * t).cos(), 0.0];
+        }
+        for (j, c) in ext.couple.iter_mut().enumerate() {
+            *c = [0.0, 1e-6 * m.rest_length[j], 0.0];
+        }
+        sim.step().unwrap()
     });
     assert!(contact_steps > 100, "the scene must exercise contact");
     assert!(
@@ -337,7 +361,6 @@ fn planar_free_rod_curling_with_physical_damper_stays_exactly_planar() {
         shear_coefficient: 4.0 / 3.0,
     };
     let mut spec = StraightRod::uniform(100, 1.0, 0.04, material);
-    spec.boundary = Boundary::Free;
     spec.rest_curvature = [0.0, 2.0 * PI, 0.0];
     let (model, mut state) = spec.build().unwrap();
     perturb_frames(&mut state.director, 0);
@@ -346,7 +369,14 @@ fn planar_free_rod_curling_with_physical_damper_stays_exactly_planar() {
         orthonormality_interval: 100,
         ..Settings::default()
     };
-    let mut sim = Simulation::new(model, state, settings).unwrap();
+    let mut sim = Simulation::with_ends(
+        model,
+        state,
+        EndCondition::Free,
+        EndCondition::Free,
+        settings,
+    )
+    .unwrap();
     let damper = AnalyticalDamper::Physical {
         translational: 0.02,
         rotational: 1e-6,
@@ -375,23 +405,25 @@ fn rotated_planar_scene_stays_in_its_plane_to_round_off() {
     let b = [0.5, -2.0, 3.0];
     let normal = rot(&r, [0.0, 0.0, 1.0]);
     let mut sim = cantilever_scene(&r, b);
-    let length = sim.model.length();
+    let length = sim.model().length();
     let mut worst_x: f64 = 0.0;
     let mut worst_v: f64 = 0.0;
     let mut worst_w: f64 = 0.0;
     let mut contact_steps = 0;
-    let mut hk = hook(r);
     for _ in 0..5000 {
-        sim.step_with(&mut hk).unwrap();
-        for (x, v) in sim.state.position.iter().zip(&sim.state.velocity) {
+        actuate(&mut sim, &r);
+        sim.step().unwrap();
+        let s = sim.view();
+        let n = s.n_elements();
+        for (x, v) in (0..=n).map(|i| (s.position(i), s.velocity(i))) {
             let d = [x[0] - b[0], x[1] - b[1], x[2] - b[2]];
             worst_x = worst_x.max((d[0] * normal[0] + d[1] * normal[1] + d[2] * normal[2]).abs());
             worst_v = worst_v.max((v[0] * normal[0] + v[1] * normal[1] + v[2] * normal[2]).abs());
         }
-        for w in &sim.state.omega {
+        for w in (0..n).map(|j| s.omega(j)) {
             worst_w = worst_w.max(w[0].abs()).max(w[2].abs());
         }
-        if max_penetration(&sim.model, &sim.state, &sim.obstacles).0 > 0.0 {
+        if penetrated(&sim) {
             contact_steps += 1;
         }
     }

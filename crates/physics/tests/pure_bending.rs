@@ -23,7 +23,8 @@ mod common;
 
 use common::{max_norm, norm, sub};
 use octoarm_physics::{
-    strains, AnalyticalDamper, Boundary, Damping, Load, Material, Settings, Simulation, StraightRod,
+    strains, AnalyticalDamper, Damping, EndCondition, Load, Material, Schedule, Settings,
+    Simulation, StraightRod,
 };
 use std::f64::consts::PI;
 
@@ -53,19 +54,25 @@ fn damping() -> Damping {
 fn run(sim: &mut Simulation) -> f64 {
     let steps = (T_END / DT).round() as u64;
     sim.run(steps).unwrap();
-    max_norm(&sim.state.velocity)
+    max_norm(&sim.rod_state().velocity)
 }
 
 #[test]
 fn c1_free_rod_with_rest_curvature_closes_into_regular_polygon() {
     let mut spec = rod();
-    spec.boundary = Boundary::Free;
     spec.rest_curvature = [0.0, 2.0 * PI / LENGTH, 0.0];
     let (model, state) = spec.build().unwrap();
-    let mut sim = Simulation::new(model, state, Settings::with_dt(DT)).unwrap();
+    let mut sim = Simulation::with_ends(
+        model,
+        state,
+        EndCondition::Free,
+        EndCondition::Free,
+        Settings::with_dt(DT),
+    )
+    .unwrap();
     sim.set_damping(damping()).unwrap();
     let vmax = run(&mut sim);
-    let x = &sim.state.position;
+    let x = &sim.rod_state().position;
 
     let gap = norm(sub(x[N], x[0]));
     let mut centroid = [0.0; 3];
@@ -82,7 +89,7 @@ fn c1_free_rod_with_rest_curvature_closes_into_regular_polygon() {
         .fold(0.0, f64::max);
     let mut sigma = vec![[0.0; 3]; N];
     let mut kappa = vec![[0.0; 3]; N - 1];
-    strains(&sim.model, &sim.state, &mut sigma, &mut kappa);
+    strains(sim.model(), &sim.view(), &mut sigma, &mut kappa);
     let sigma_max = sigma.iter().map(|s| norm(*s)).fold(0.0, f64::max);
     println!(
         "c1: |x_N - x_0| = {gap:.3e} m, R_N = {r_n:.10} m (continuum {:.10}), max |R_i/R_N - 1| = {spread:.3e}, \
@@ -110,11 +117,13 @@ fn c2_cantilever_with_tip_couple_bends_into_discrete_arc() {
     let couple = 0.5 * PI * ei_closed / LENGTH;
     let mut sim = Simulation::new(model, state, Settings::with_dt(DT)).unwrap();
     sim.set_damping(damping()).unwrap();
-    sim.add_load(Load::ElementCouple {
-        element: N - 1,
-        couple: [0.0, 0.0, couple],
-        ramp_time: 5.0,
-    })
+    sim.add_scheduled_load(
+        Load::ElementCouple {
+            element: N - 1,
+            couple: [0.0, 0.0, couple],
+        },
+        Schedule::Ramp { duration: 5.0 },
+    )
     .unwrap();
     let vmax = run(&mut sim);
 
@@ -129,20 +138,20 @@ fn c2_cantilever_with_tip_couple_bends_into_discrete_arc() {
     }
     let mut sigma = vec![[0.0; 3]; N];
     let mut kappa = vec![[0.0; 3]; N - 1];
-    strains(&sim.model, &sim.state, &mut sigma, &mut kappa);
-    let tip_err = norm(sub(sim.state.tip(), tip));
+    strains(sim.model(), &sim.view(), &mut sigma, &mut kappa);
+    let tip_err = norm(sub(sim.tip(), tip));
     let kappa_err = kappa
         .iter()
         .map(|k| (k[1] - kappa_exact).abs())
         .fold(0.0, f64::max);
     let sigma_max = sigma.iter().map(|s| norm(*s)).fold(0.0, f64::max);
-    let d3 = sim.state.director[N - 1][2];
+    let d3 = sim.rod_state().director[N - 1][2];
     println!(
         "c2: M = {couple:.7} N m, tip = ({:.8}, {:.8}) vs discrete ({:.8}, {:.8}) (continuum ({:.8}, {:.8})), \
          |err| = {tip_err:.3e} m, max |kappa2 - pi/2| = {kappa_err:.3e}, max |sigma| = {sigma_max:.3e}, \
          tip angle {:.7} vs {:.7}, max |v| = {vmax:.3e}",
-        sim.state.tip()[0],
-        sim.state.tip()[1],
+        sim.tip()[0],
+        sim.tip()[1],
         tip[0],
         tip[1],
         (kappa_exact * LENGTH).sin() / kappa_exact,

@@ -44,8 +44,8 @@
 //! result by far more than the tolerance (checked below), as does α_c = 4/3 instead of 27/28.
 
 use octoarm_physics::{
-    AnalyticalDamper, Boundary, Damping, Load, Mat3, Material, RodModel, RodState, Settings,
-    Simulation, Vec3,
+    AnalyticalDamper, Damping, EndCondition, Load, Mat3, Material, RodModel, RodState, Schedule,
+    Settings, Simulation, Vec3,
 };
 use std::collections::BTreeMap;
 
@@ -287,12 +287,27 @@ fn state_of(snap: &Json) -> RodState {
     }
 }
 
-fn model_of(case: &Json, shear_coefficient: f64) -> RodModel {
-    let boundary = match case.get("boundary").s() {
-        "clamped" => Boundary::ClampedBase,
-        "free" => Boundary::Free,
+/// The end conditions (base, tip) of a case: PyElastica's OneEndFixedBC clamps the base.
+fn ends_of(case: &Json) -> (EndCondition, EndCondition) {
+    match case.get("boundary").s() {
+        "clamped" => (EndCondition::Clamped, EndCondition::Free),
+        "free" => (EndCondition::Free, EndCondition::Free),
         b => panic!("unknown boundary {b}"),
-    };
+    }
+}
+
+/// The ramp of a PyElastica endpoint load: linear over `ramp_time` s, none for 0.
+fn ramp_of(ramp_time: f64) -> Schedule {
+    if ramp_time > 0.0 {
+        Schedule::Ramp {
+            duration: ramp_time,
+        }
+    } else {
+        Schedule::Constant
+    }
+}
+
+fn model_of(case: &Json, shear_coefficient: f64) -> RodModel {
     let material = Material {
         density: case.get("density").f(),
         youngs_modulus: case.get("youngs_modulus").f(),
@@ -303,7 +318,6 @@ fn model_of(case: &Json, shear_coefficient: f64) -> RodModel {
         &case.get("rest_length").scalars(),
         &case.get("radius").scalars(),
         material,
-        boundary,
     )
     .unwrap();
     let n = model.n_elements;
@@ -322,7 +336,9 @@ fn simulation_of(case: &Json, shear_coefficient: f64, energy_consistent: bool) -
     let length = model.length();
     let mut settings = Settings::with_dt(case.get("dt").f());
     settings.energy_consistent = energy_consistent;
-    let mut sim = Simulation::new(model, state_of(case.get("initial")), settings).unwrap();
+    let (base, tip) = ends_of(case);
+    let mut sim =
+        Simulation::with_ends(model, state_of(case.get("initial")), base, tip, settings).unwrap();
     let loads = case.get("loads");
     if let Some(g) = loads.opt("gravity") {
         sim.add_load(Load::Gravity {
@@ -331,19 +347,23 @@ fn simulation_of(case: &Json, shear_coefficient: f64, energy_consistent: bool) -
         .unwrap();
     }
     if let Some(p) = loads.opt("tip_force") {
-        sim.add_load(Load::NodeForce {
-            node: n,
-            force: p.get("force").vec3(),
-            ramp_time: p.get("ramp_time").f(),
-        })
+        sim.add_scheduled_load(
+            Load::NodeForce {
+                node: n,
+                force: p.get("force").vec3(),
+            },
+            ramp_of(p.get("ramp_time").f()),
+        )
         .unwrap();
     }
     if let Some(m) = loads.opt("tip_couple") {
-        sim.add_load(Load::ElementCouple {
-            element: n - 1,
-            couple: m.get("couple").vec3(),
-            ramp_time: m.get("ramp_time").f(),
-        })
+        sim.add_scheduled_load(
+            Load::ElementCouple {
+                element: n - 1,
+                couple: m.get("couple").vec3(),
+            },
+            ramp_of(m.get("ramp_time").f()),
+        )
         .unwrap();
     }
     if let Some(m) = loads.opt("uniform_torque") {
@@ -408,7 +428,7 @@ fn compare(case: &Json, sim: &mut Simulation) -> [f64; 4] {
     let mut err = [0.0f64; 4];
     for (snap, &step) in snaps.iter().zip(&steps) {
         sim.run(step - sim.steps()).unwrap();
-        let s = &sim.state;
+        let s = sim.rod_state();
         assert!(
             (s.time - snap.time).abs() < 1e-12,
             "time {} vs {}",

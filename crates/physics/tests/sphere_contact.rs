@@ -22,7 +22,8 @@ mod common;
 
 use common::{max_norm, norm};
 use octoarm_physics::{
-    max_penetration, Boundary, Damping, Load, Material, Settings, Simulation, Sphere, StraightRod,
+    max_penetration, Damping, EndCondition, Load, Material, RodAccess, Settings, Simulation,
+    Sphere, StraightRod,
 };
 
 /// Step until every node is slower than 1e-7 m/s (100× stricter than the spec's static
@@ -31,7 +32,7 @@ use octoarm_physics::{
 fn relax(sim: &mut Simulation, t_max: f64) -> f64 {
     loop {
         sim.run(100).unwrap();
-        let vmax = max_norm(&sim.state.velocity);
+        let vmax = max_norm(&sim.rod_state().velocity);
         if vmax < 1e-7 && sim.state.time > 0.5 {
             return sim.state.time;
         }
@@ -44,22 +45,22 @@ fn relax(sim: &mut Simulation, t_max: f64) -> f64 {
 
 /// Penetration relative to the current radius r̂_j/√e_j of the element where it is largest.
 fn relative_penetration(sim: &Simulation) -> (f64, f64, usize) {
-    let (g, j) = max_penetration(&sim.model, &sim.state, &sim.obstacles);
-    let x = &sim.state.position;
-    let l = ((x[j + 1][0] - x[j][0]).powi(2)
-        + (x[j + 1][1] - x[j][1]).powi(2)
-        + (x[j + 1][2] - x[j][2]).powi(2))
-    .sqrt();
-    let r = sim.model.radius[j] / (l / sim.model.rest_length[j]).sqrt();
+    let s = sim.view();
+    let (g, j) = max_penetration(sim.model(), &s, sim.system.obstacles(), sim.time());
+    let (a, b) = (s.position(j), s.position(j + 1));
+    let l = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
+    let r = sim.model().radius[j] / (l / sim.model().rest_length[j]).sqrt();
     (g / r, g, j)
 }
 
 /// Total contact force of the last force evaluation: all external forces minus the uniform load.
 fn contact_force(sim: &Simulation, p: [f64; 3], first_node: usize) -> [f64; 3] {
     let mut f = [0.0; 3];
-    for i in first_node..sim.model.n_nodes() {
+    let external = &sim.workspace.external.force;
+    for i in first_node..sim.model().n_nodes() {
+        let fi = external.get(i);
         for c in 0..3 {
-            f[c] += sim.external.force[i][c] - p[c] * sim.model.nodal_rest_length[i];
+            f[c] += fi[c] - p[c] * sim.model().nodal_rest_length[i];
         }
     }
     f
@@ -80,11 +81,17 @@ fn free_rod_rests_on_sphere_and_contact_carries_the_load() {
         shear_modulus: 1e3,
         shear_coefficient: Material::DEFAULT_SHEAR_COEFFICIENT,
     };
-    let mut rod = StraightRod::uniform(50, 0.2, 0.01, material);
-    rod.boundary = Boundary::Free;
+    let rod = StraightRod::uniform(50, 0.2, 0.01, material);
     let (model, state) = rod.build().unwrap();
-    let mut sim = Simulation::new(model, state, Settings::with_dt(1e-4)).unwrap();
-    assert!(1e-4 < 0.2 * sim.model.stable_dt());
+    let mut sim = Simulation::with_ends(
+        model,
+        state,
+        EndCondition::Free,
+        EndCondition::Free,
+        Settings::with_dt(1e-4),
+    )
+    .unwrap();
+    assert!(1e-4 < 0.2 * sim.model().stable_dt());
     sim.set_damping(Damping::mass_proportional(6.0)).unwrap();
     let p = [0.0, -5e-3, 0.0];
     sim.add_load(Load::UniformForce {
@@ -136,9 +143,10 @@ fn paper_arm_propped_by_sphere_rests_outside_it() {
     let mut fc = [0.0; 3];
     let mut applied = [0.0; 3];
     for i in 1..=n {
+        let fi = sim.workspace.external.force.get(i);
         for c in 0..3 {
-            applied[c] += sim.external.force[i][c];
-            fc[c] += sim.external.force[i][c] - if i == n { tip[c] } else { 0.0 };
+            applied[c] += fi[c];
+            fc[c] += fi[c] - if i == n { tip[c] } else { 0.0 };
         }
     }
     let reaction = sim.base_reaction_force();
@@ -151,7 +159,7 @@ fn paper_arm_propped_by_sphere_rests_outside_it() {
         "paper arm at rest after {t:.2} s: penetration {g:.3e} m = {rel:.2e} of the local radius (element {j}); \
          contact force {fc:?} N, base reaction {reaction:?} N, tip force {tip:?} N, imbalance {imbalance:.2e}; \
          tip at {:?}",
-        sim.state.tip()
+        sim.tip()
     );
     assert!(g > 0.0, "the arm must touch the sphere");
     assert!(rel < 0.01, "penetration {rel:e} of the radius");

@@ -32,7 +32,7 @@ fn run(shear_coefficient: f64, dt: f64) -> RodState {
     let steps = (T_END / dt).round() as u64;
     assert!((steps as f64 * dt - T_END).abs() < 1e-15);
     sim.run(steps).unwrap();
-    sim.state
+    sim.rod_state()
 }
 
 /// Max-norm (largest absolute component) distance of two arrays of 3-vectors.

@@ -94,8 +94,9 @@ fn relax(n: usize) -> (Vec<Vec3>, f64) {
         .unwrap();
     let steps = (T_END / DT).round() as u64;
     sim.run(steps).unwrap();
-    let vmax = max_norm(&sim.state.velocity);
-    (sim.state.position.clone(), vmax)
+    let state = sim.rod_state();
+    let vmax = max_norm(&state.velocity);
+    (state.position, vmax)
 }
 
 struct Outcome {

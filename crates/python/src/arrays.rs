@@ -1,8 +1,10 @@
 //! NumPy conversion: every getter returns a fresh C-contiguous copy (the simulation rewrites its
-//! buffers in place, with the GIL released, so a view could change or tear under the reader).
+//! buffers in place, with the GIL released, so a view could change or tear under the reader), and
+//! every array argument is read through `read_array`, which accepts any array-like, requires the
+//! exact shape (never reshapes) and finite entries, and names the argument in its errors.
 
 use numpy::ndarray::{Array1, Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyUntypedArrayMethods};
 use octoarm_physics::{Mat3, Vec3};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -30,24 +32,74 @@ pub fn scalars<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
     Array1::from_vec(v.to_vec()).into_pyarray(py)
 }
 
-/// Read an (expected, 3) float64 array; the error names `field` and the required shape.
-pub fn read_vec3s(
-    a: &PyReadonlyArray2<'_, f64>,
-    field: &str,
-    expected: usize,
-) -> PyResult<Vec<Vec3>> {
-    let shape = a.shape();
-    if shape != [expected, 3] {
+/// An array-like argument as a float64 array with its shape and entries (row-major), finite.
+/// Errors name `field`.
+fn as_f64_array(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<(Vec<usize>, Vec<f64>)> {
+    let py = obj.py();
+    let converted = py
+        .import("numpy")?
+        .call_method1("asarray", (obj, "float64"))
+        .map_err(|e| PyValueError::new_err(format!("{field} is not an array of numbers: {e}")))?;
+    let arr = converted.cast::<PyArrayDyn<f64>>()?.readonly();
+    let shape = arr.shape().to_vec();
+    let view = arr.as_array();
+    let values: Vec<f64> = view.iter().copied().collect();
+    if let Some((flat, v)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        let mut index = Vec::with_capacity(shape.len());
+        let mut rest = flat;
+        for d in shape.iter().rev() {
+            index.push(rest % d);
+            rest /= d;
+        }
+        index.reverse();
+        let index: Vec<String> = index.iter().map(|i| i.to_string()).collect();
         return Err(PyValueError::new_err(format!(
-            "{field} has shape {}, expected ({expected}, 3)",
-            shape_str(shape)
+            "{field} must be finite: entry [{}] is {v}",
+            index.join(", ")
         )));
     }
-    let view = a.as_array();
-    Ok(view
-        .rows()
-        .into_iter()
-        .map(|r| [r[0], r[1], r[2]])
+    Ok((shape, values))
+}
+
+/// Read an array-like of exactly the shape `expected` (float64, finite, row-major entries). The
+/// error names `field`, the shape given and the one required, e.g. "positions has shape (3,),
+/// expected (101, 3)".
+pub fn read_array(obj: &Bound<'_, PyAny>, field: &str, expected: &[usize]) -> PyResult<Vec<f64>> {
+    let (shape, values) = as_f64_array(obj, field)?;
+    if shape != expected {
+        return Err(PyValueError::new_err(format!(
+            "{field} has shape {}, expected {}",
+            shape_str(&shape),
+            shape_str(expected)
+        )));
+    }
+    Ok(values)
+}
+
+/// Read a 1-D array-like of any length (float64, finite).
+pub fn read_vector(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Vec<f64>> {
+    let (shape, values) = as_f64_array(obj, field)?;
+    if shape.len() != 1 {
+        return Err(PyValueError::new_err(format!(
+            "{field} has shape {}, expected (k,): one dimension",
+            shape_str(&shape)
+        )));
+    }
+    Ok(values)
+}
+
+/// Read an (expected, 3) array-like of vectors.
+pub fn read_vec3s(obj: &Bound<'_, PyAny>, field: &str, expected: usize) -> PyResult<Vec<Vec3>> {
+    let flat = read_array(obj, field, &[expected, 3])?;
+    Ok(flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+}
+
+/// Read an (expected, 3, 3) array-like of matrices.
+pub fn read_mat3s(obj: &Bound<'_, PyAny>, field: &str, expected: usize) -> PyResult<Vec<Mat3>> {
+    let flat = read_array(obj, field, &[expected, 3, 3])?;
+    Ok(flat
+        .chunks_exact(9)
+        .map(|c| [[c[0], c[1], c[2]], [c[3], c[4], c[5]], [c[6], c[7], c[8]]])
         .collect())
 }
 

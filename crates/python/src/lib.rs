@@ -1,7 +1,13 @@
 //! octoarm-python: the `octoarm._octoarm` extension module. Thin bindings only: argument
 //! conversion, NumPy array conversion and error mapping; all physics lives in octoarm-physics,
-//! all control in octoarm-control. The Python package (`python/octoarm`) adds the Gymnasium
+//! all control in octoarm-control, scenario runs in the application's library (`octoarm`,
+//! linked without its command line). The Python package (`python/octoarm`) adds the Gymnasium
 //! environments on top of `ArmBatch`.
+//!
+//! Modules: `arrays` (NumPy conversion and shape checks), `system` (the rod-system description
+//! classes `Rod`, `Motion`, `Joint`), `rod` (`Simulation`: one rod or a system of rods, its
+//! state, loads, damping, rest strains and pickling), `control` (solver, design, energy-shaping
+//! law), `env` (`ArmBatch`), `scenario` (`run_scenario`).
 
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -12,15 +18,17 @@ mod control;
 mod env;
 mod rod;
 mod scenario;
+mod system;
 
 create_exception!(
     octoarm,
     InstabilityError,
     PyRuntimeError,
     "The stability guard stopped a simulation. Attributes: `what`, `value`, `domain` \
-     (\"node\", \"element\" or \"voronoi point\"), `index`, `element` (= `index`), `time` [s], \
-     `step`, `dt` [s], `suggested_dt` [s], `advice`. The simulation keeps the state at which the \
-     guard fired."
+     (\"node\", \"element\" or \"voronoi point\"), `index`, `element` (= `index`), `rod` (the \
+     rod's name in a system of several rods, else None), `time` [s], `step`, `dt` [s], \
+     `suggested_dt` [s], `advice`. The simulation keeps the state at which the guard fired. \
+     Raised by `run_scenario`, it also has `report`, the run's dict (outputs are written)."
 );
 
 /// Map a physics input error to `ValueError`; its text names the argument, value and range.
@@ -37,6 +45,7 @@ pub(crate) fn step_error(py: Python<'_>, e: octoarm_physics::StepError) -> PyErr
         value,
         domain,
         index,
+        rod,
         time,
         step,
         dt,
@@ -52,6 +61,7 @@ pub(crate) fn step_error(py: Python<'_>, e: octoarm_physics::StepError) -> PyErr
     set("domain", domain.into_pyobject(py).unwrap().into_any());
     set("index", index.into_pyobject(py).unwrap().into_any());
     set("element", index.into_pyobject(py).unwrap().into_any());
+    set("rod", rod.into_pyobject(py).unwrap().into_any());
     set("time", time.into_pyobject(py).unwrap().into_any());
     set("step", step.into_pyobject(py).unwrap().into_any());
     set("dt", dt.into_pyobject(py).unwrap().into_any());
@@ -67,11 +77,15 @@ pub(crate) fn step_error(py: Python<'_>, e: octoarm_physics::StepError) -> PyErr
 fn _octoarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("InstabilityError", m.py().get_type::<InstabilityError>())?;
     m.add_class::<rod::Simulation>()?;
+    m.add_class::<system::Rod>()?;
+    m.add_class::<system::Motion>()?;
+    m.add_class::<system::Joint>()?;
     m.add_class::<control::Design>()?;
     m.add_class::<control::OfflineSolver>()?;
     m.add_class::<control::EnergyShapingController>()?;
     m.add_class::<env::ArmBatch>()?;
     m.add_function(wrap_pyfunction!(rod::rust_step_rate, m)?)?;
+    m.add_function(wrap_pyfunction!(rod::_simulation_from_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::run_scenario, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -1,9 +1,12 @@
 //! Helpers shared by the physics tests: the initial condition of spec §13 (d), a rotation by
-//! Rodrigues' formula with libm (independent of the crate's kernel) and small vector norms.
+//! Rodrigues' formula with libm (independent of the crate's kernel), small vector norms, and the
+//! plumbing that evaluates internal loads of a lone `RodState` (the kernels read a system store).
 //! Each test file uses a part of them.
 #![allow(dead_code)]
 
-use octoarm_physics::{Mat3, RodModel, RodState, Vec3};
+use octoarm_physics::{
+    InternalLoads, Mat3, Mat3s, Offsets, RodModel, RodState, SystemState, Vec3, Vec3s,
+};
 
 /// The spec's initial condition (§13 d) on a built straight arm: v_i = A (ŝ_i/L0)² (0, 1, 0.4),
 /// ω_j = (0, 0, 2 A s̄_j / L0²) (material frame), node 0 and element 0 left at rest; `a` = A
@@ -65,4 +68,47 @@ pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
 /// Largest |v| over `a` (0 for an empty slice), e.g. the fastest node's speed.
 pub fn max_norm(a: &[Vec3]) -> f64 {
     a.iter().map(|v| norm(*v)).fold(0.0, f64::max)
+}
+
+/// The entries of a structure-of-arrays field as a vector of 3-vectors.
+pub fn vecs(v: &Vec3s) -> Vec<Vec3> {
+    v.to_vec(0..v.len())
+}
+
+/// A one-rod system store holding `s` (no validation, as the kernels need none).
+pub fn system_state(s: &RodState) -> SystemState {
+    SystemState {
+        time: s.time,
+        step: 0,
+        origin: 0.0,
+        position: Vec3s::from_slice(&s.position),
+        velocity: Vec3s::from_slice(&s.velocity),
+        director: Mat3s::from_slice(&s.director),
+        omega: Vec3s::from_slice(&s.omega),
+        work: vec![0.0],
+        dissipated: vec![0.0],
+    }
+}
+
+/// Internal loads of the lone rod state `s` against the given rest strains, by the stepper's
+/// kernel (`with_velocity_terms`: the gyroscopic and unsteady-dilatation torques of eq. 4.3).
+pub fn internal_loads(
+    model: &RodModel,
+    s: &RodState,
+    rest_sigma: &[Vec3],
+    rest_kappa: &[Vec3],
+    with_velocity_terms: bool,
+    energy_consistent: bool,
+) -> InternalLoads {
+    let mut out = InternalLoads::for_rod(model.n_elements);
+    out.compute_rod(
+        model,
+        &system_state(s),
+        Offsets::ZERO,
+        rest_sigma,
+        rest_kappa,
+        with_velocity_terms,
+        energy_consistent,
+    );
+    out
 }
