@@ -1,0 +1,161 @@
+//! Claim: a run continued from frame k of an earlier run's `trajectory.npz` (`[initial_state]`)
+//! equals the uninterrupted run to the last bit: every array of every frame from k on, time
+//! included, and the accumulated work and dissipation.
+//!
+//! Reference: the uninterrupted run itself. The scenario is chosen so that every part of the
+//! state matters: a tapered arm with a ramped tip force (time-dependent: the continued run must
+//! resume the time axis exactly, t = step · dt), a lab couple, gravity, per-length and
+//! mass-proportional damping, a sphere it touches, and a frame interval that is not a multiple of
+//! the guard or orthonormality intervals. Two rods (the second pinned at its base) check that
+//! every rod of a system is restored.
+//!
+//! How a wrong implementation fails: dropping ω (angular velocities) or v, restarting the time at
+//! 0 or summing it from t_k (ramps and obstacle motion shift), restarting the step count (the
+//! periodic re-orthonormalisation falls on other steps), or not restoring the work and
+//! dissipation integrals changes at least one array's bits.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn octoarm(args: &[&str], cwd: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_octoarm"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the binary runs")
+}
+
+/// (name, data) of every `.npz` member.
+fn members(path: &Path) -> Vec<(String, Vec<f64>, Vec<usize>)> {
+    let mut zip = zip::ZipArchive::new(std::fs::File::open(path).unwrap()).unwrap();
+    let mut out = Vec::new();
+    for i in 0..zip.len() {
+        let mut m = zip.by_index(i).unwrap();
+        let name = m.name().trim_end_matches(".npy").to_string();
+        let mut bytes = Vec::new();
+        m.read_to_end(&mut bytes).unwrap();
+        let header = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        let dict = String::from_utf8_lossy(&bytes[10..10 + header]).into_owned();
+        let shape: Vec<usize> = dict
+            .split("'shape': (")
+            .nth(1)
+            .unwrap()
+            .split(')')
+            .next()
+            .unwrap()
+            .split(',')
+            .filter_map(|d| d.trim().parse().ok())
+            .collect();
+        let data = bytes[10 + header..]
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        out.push((name, data, shape));
+    }
+    out
+}
+
+const SCENARIO: &str = r#"
+[[rod]]
+name = "arm"
+n_elements = 40
+length = 0.2
+base_diameter = 0.02
+tip_diameter = 0.004
+density = 700.0
+youngs_modulus = 1.0e4
+shear_modulus = 1.0e3
+
+[[rod]]
+name = "feeler"
+n_elements = 12
+length = 0.1
+base_diameter = 0.004
+density = 700.0
+youngs_modulus = 1.0e5
+shear_modulus = 4.0e4
+base_position = [0.0, 0.0, 0.05]
+direction = [0.0, 1.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+base = "pinned"
+
+[time]
+dt = 2.0e-5
+duration = DURATION
+save_interval = 7.0e-4
+
+[damping]
+rate = 2.0
+gamma = 0.002
+
+[[load]]
+kind = "tip_force"
+rod = "arm"
+value = [0.0, 4.0e-5, 1.0e-5]
+ramp_time = 0.03
+
+[[load]]
+kind = "tip_couple"
+rod = "arm"
+value = [0.0, 0.0, 2.0e-7]
+
+[[load]]
+kind = "gravity"
+value = [0.0, 0.0, -0.5]
+
+[[obstacle]]
+kind = "sphere"
+center = [0.1, 0.035, 0.0]
+diameter = 0.04
+"#;
+
+#[test]
+fn a_run_continued_from_a_frame_equals_the_uninterrupted_run_to_the_last_bit() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir: PathBuf = tmp.path().to_path_buf();
+    std::fs::write(
+        dir.join("full.toml"),
+        SCENARIO.replace("DURATION", "0.0994"),
+    )
+    .unwrap();
+    let o = octoarm(&["run", "-q", "full.toml", "--out", "full"], &dir);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let full = members(&dir.join("full/trajectory.npz"));
+    let time = &full.iter().find(|m| m.0 == "time").unwrap().1;
+    // Frame 71: t = 71 · 35 steps of 2e-5 s = 0.0497 s, not a multiple of the 100-step guard
+    // interval nor of the 1000-step orthonormality interval.
+    let k = 71;
+    let t_k = time[k];
+    let rest = 0.0994 - t_k;
+    let text = SCENARIO.replace("DURATION", &format!("{rest}"))
+        + &format!("\n[initial_state]\nfile = \"full/trajectory.npz\"\nframe = {k}\n");
+    std::fs::write(dir.join("continued.toml"), text).unwrap();
+    let o = octoarm(&["run", "-q", "continued.toml", "--out", "continued"], &dir);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cont = members(&dir.join("continued/trajectory.npz"));
+
+    let frames_full = time.len();
+    let frames_cont = cont.iter().find(|m| m.0 == "time").unwrap().1.len();
+    assert_eq!(frames_cont, frames_full - k, "frames from k to the end");
+    assert!(full.len() >= 2 * 12 + 1, "{} members", full.len());
+    for (name, data, shape) in &full {
+        let (_, c, cshape) = cont
+            .iter()
+            .find(|m| &m.0 == name)
+            .unwrap_or_else(|| panic!("{name} missing from the continued run"));
+        assert_eq!(&cshape[1..], &shape[1..], "{name}");
+        let per: usize = shape[1..].iter().product();
+        let expected = &data[k * per..];
+        let differing = expected
+            .iter()
+            .zip(c)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        assert_eq!(
+            differing, 0,
+            "{name}: {differing} of {} values differ from the uninterrupted run",
+            expected.len()
+        );
+    }
+}
