@@ -19,7 +19,7 @@ pub struct Check {
 }
 
 fn within(v: f64, a: &AcceptanceConfig) -> bool {
-    a.min.is_none_or(|m| v >= m) && a.max.is_none_or(|m| v <= m)
+    a.min.map_or(true, |m| v >= m) && a.max.map_or(true, |m| v <= m)
 }
 
 /// Evaluate every claim. `length` is L0 [m], `duration` the planned run length [s].

@@ -130,7 +130,10 @@ fn end_condition(e: &EndConfig) -> EndCondition {
 
 /// The rest strains a rod section gives (σ° per element, κ° per interior node), or None when
 /// it gives only the uniform `rest_curvature` (built by `StraightRod` itself).
-fn rest_strains(r: &RodConfig, model: &RodModel) -> Option<(Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+/// Rest strains of a rod: σ° per element and κ° per interior node.
+type RestFields = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+fn rest_strains(r: &RodConfig, model: &RodModel) -> Option<RestFields> {
     if r.rest_sigma.is_none() && r.rest_kappa.is_none() {
         return None;
     }
@@ -162,8 +165,7 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
     };
     let mut builder = SystemBuilder::new(settings);
     // (geometry, model) of rods already built: identical sections share one model.
-    let mut models: Vec<(StraightRod, Option<(Vec<[f64; 3]>, Vec<[f64; 3]>)>, Arc<RodModel>)> =
-        Vec::new();
+    let mut models: Vec<(StraightRod, Option<RestFields>, Arc<RodModel>)> = Vec::new();
     let mut changes = Vec::new();
     let mut rod_models: Vec<Arc<RodModel>> = Vec::new();
     let damping = damping(&cfg.damping);

@@ -328,11 +328,11 @@ impl Recorder for TrajectoryRecorder {
             .ok_or_else(|| anyhow!("recorder already finished"))?
             .join()
             .map_err(|_| anyhow!("the writer thread panicked"))??;
-        if self.shapes.last().is_none_or(|(t, _)| *t != self.last.0) && !self.last.1.is_empty() {
+        if self.shapes.last().map_or(true, |(t, _)| *t != self.last.0) && !self.last.1.is_empty() {
             self.shapes.push(self.last.clone());
         }
         if let Some(f) = self.last_control.take() {
-            if self.control_frames.last().is_none_or(|l| l.time != f.time) {
+            if self.control_frames.last().map_or(true, |l| l.time != f.time) {
                 self.control_frames.push(f);
             }
         }

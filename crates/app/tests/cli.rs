@@ -71,22 +71,30 @@ struct Trajectory {
 }
 
 fn read_trajectory(dir: &Path) -> Trajectory {
+    read_rod(dir, "")
+}
+
+/// The arrays of one rod: `prefix` is "" for a lone rod, "<name>/" in a system of rods.
+fn read_rod(dir: &Path, prefix: &str) -> Trajectory {
     let mut npz = NpzReader::new(File::open(dir.join("trajectory.npz")).unwrap()).unwrap();
     let names = npz.names().unwrap();
-    for required in ["time", "position", "velocity", "director", "sigma", "kappa"] {
-        assert!(
-            names.iter().any(|n| n == required),
-            "{required} missing from {names:?}"
-        );
+    for required in ["position", "velocity", "director", "omega", "sigma", "kappa"] {
+        let key = format!("{prefix}{required}");
+        assert!(names.iter().any(|n| *n == key), "{key} missing from {names:?}");
     }
-    Trajectory {
+    let key = |f: &str| format!("{prefix}{f}");
+    let omega: Array3<f64> = npz.by_name(&key("omega")).unwrap();
+    let t = Trajectory {
         time: npz.by_name("time").unwrap(),
-        position: npz.by_name("position").unwrap(),
-        velocity: npz.by_name("velocity").unwrap(),
-        director: npz.by_name("director").unwrap(),
-        sigma: npz.by_name("sigma").unwrap(),
-        kappa: npz.by_name("kappa").unwrap(),
-    }
+        position: npz.by_name(&key("position")).unwrap(),
+        velocity: npz.by_name(&key("velocity")).unwrap(),
+        director: npz.by_name(&key("director")).unwrap(),
+        sigma: npz.by_name(&key("sigma")).unwrap(),
+        kappa: npz.by_name(&key("kappa")).unwrap(),
+    };
+    assert_eq!(omega.shape(), t.sigma.shape(), "omega is [T, N, 3]");
+    assert!(omega.iter().all(|v| v.is_finite()));
+    t
 }
 
 fn summary(dir: &Path) -> serde_json::Value {
@@ -159,16 +167,34 @@ fn every_shipped_scenario_runs_to_completion() {
         }
         let s = summary(&out);
         assert_eq!(s["status"], "completed", "{name}");
-        let n = s["arrays"]["director"]["shape"][1].as_u64().unwrap() as usize;
-        let t = read_trajectory(&out);
-        check_shapes(&t, n);
+        let rods = s["rods"].as_array().unwrap();
+        let multi = rods.len() > 1;
+        let mut t = None;
+        for rod in rods {
+            let prefix = if multi {
+                format!("{}/", rod["name"].as_str().unwrap())
+            } else {
+                String::new()
+            };
+            let n = s["arrays"][format!("{prefix}director")]["shape"][1]
+                .as_u64()
+                .unwrap() as usize;
+            assert_eq!(rod["n_elements"].as_u64().unwrap() as usize, n);
+            let tr = read_rod(&out, &prefix);
+            check_shapes(&tr, n);
+            assert_eq!(rod["final_tip_position"].as_array().unwrap().len(), 3);
+            t = Some(tr);
+        }
+        let t = t.unwrap();
         assert_eq!(t.time[0], 0.0);
         let steps = s["steps"].as_u64().unwrap();
         assert_eq!(steps, s["planned_steps"].as_u64().unwrap());
         assert!((t.time[t.time.len() - 1] - s["simulated_seconds"].as_f64().unwrap()).abs() < 1e-9);
         assert_eq!(s["version"], env!("CARGO_PKG_VERSION"));
         assert!(s["us_per_step"].as_f64().unwrap() > 0.0);
-        assert_eq!(s["final_tip_position"].as_array().unwrap().len(), 3);
+        if !multi {
+            assert_eq!(s["final_tip_position"].as_array().unwrap().len(), 3);
+        }
     }
 }
 
@@ -579,4 +605,200 @@ fn paper_arm_cannot_carry_2e_4_newton_and_stops_with_the_instability_error() {
     let t = read_trajectory(&tmp.path().join("out"));
     check_shapes(&t, 100);
     let _: Array2<f64> = t.position.index_axis(ndarray::Axis(0), 0).to_owned();
+}
+
+/// A run's `trajectory.npz` members as raw bytes, by name.
+fn npz_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    use std::io::Read;
+    let mut zip = zip::ZipArchive::new(File::open(dir.join("trajectory.npz")).unwrap()).unwrap();
+    (0..zip.len())
+        .map(|i| {
+            let mut m = zip.by_index(i).unwrap();
+            let mut b = Vec::new();
+            m.read_to_end(&mut b).unwrap();
+            (m.name().to_string(), b)
+        })
+        .collect()
+}
+
+fn run_ok(dir: &Path, name: &str, text: &str) -> PathBuf {
+    write(dir, &format!("{name}.toml"), text);
+    let o = octoarm(
+        &["run", "-q", &format!("{name}.toml"), "--out", name],
+        dir,
+    );
+    assert!(o.status.success(), "{name}: {}", stderr(&o));
+    dir.join(name)
+}
+
+#[test]
+fn loads_placed_by_arc_length_and_by_index_are_the_same_load() {
+    let tmp = tempfile::tempdir().unwrap();
+    let tip = run_ok(tmp.path(), "tip", TINY);
+    let by_s = run_ok(
+        tmp.path(),
+        "by_s",
+        &TINY.replace("kind = \"tip_force\"", "kind = \"node_force\"\ns = 0.2"),
+    );
+    let by_index = run_ok(
+        tmp.path(),
+        "by_index",
+        &TINY.replace("kind = \"tip_force\"", "kind = \"node_force\"\nnode = 10"),
+    );
+    assert_eq!(npz_bytes(&tip), npz_bytes(&by_s));
+    assert_eq!(npz_bytes(&tip), npz_bytes(&by_index));
+    // An arc length off the rod names the range.
+    rejects(
+        "s off the rod",
+        &TINY.replace("kind = \"tip_force\"", "kind = \"node_force\"\ns = 0.3"),
+        &[],
+        &["load[0].s = 0.3 is outside the allowed range [0, 0.2] m"],
+    );
+}
+
+#[test]
+fn rest_curvature_as_a_function_of_arc_length_equals_the_uniform_value() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = TINY.replace("[[load]]\nkind = \"tip_force\"\nvalue = [0.0, 1.0e-4, 0.0]\n", "");
+    let uniform = run_ok(
+        tmp.path(),
+        "uniform",
+        &base.replace("shear_modulus = 1.0e3", "shear_modulus = 1.0e3\nrest_curvature = [0.0, 5.0, 0.0]"),
+    );
+    let function = run_ok(
+        tmp.path(),
+        "function",
+        &base.replace(
+            "shear_modulus = 1.0e3",
+            "shear_modulus = 1.0e3\nrest_kappa = { s = [0.0, 0.2], value = [[0.0, 5.0, 0.0], [0.0, 5.0, 0.0]] }",
+        ),
+    );
+    assert_eq!(npz_bytes(&uniform), npz_bytes(&function));
+    rejects(
+        "per-entry length",
+        &base.replace(
+            "shear_modulus = 1.0e3",
+            "shear_modulus = 1.0e3\nrest_kappa = [[0.0, 5.0, 0.0], [0.0, 5.0, 0.0]]",
+        ),
+        &[],
+        &["rod.rest_kappa = 2 vectors is outside the allowed range of exactly 9 vectors"],
+    );
+}
+
+#[test]
+fn joints_and_rods_are_referenced_by_name_with_errors_naming_the_choices() {
+    let rod = |name: &str, extra: &str| {
+        format!(
+            "[[rod]]\nname = \"{name}\"\nn_elements = 10\nlength = 0.1\nbase_diameter = 0.01\n\
+             density = 1000.0\nyoungs_modulus = 1.0e5\nshear_modulus = 4.0e4\n{extra}\n"
+        )
+    };
+    let text = format!(
+        "{}{}[time]\ndt = 2.0e-5\nduration = 0.02\n\n[[joint]]\nkind = \"fixed\"\nfirst = \"a.tip\"\nsecond = \"b.base\"\n",
+        rod("a", ""),
+        rod("b", "base_position = [0.1, 0.0, 0.0]\nbase = \"free\""),
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let out = run_ok(tmp.path(), "joined", &text);
+    let names: Vec<String> = npz_bytes(&out).into_iter().map(|(n, _)| n).collect();
+    for key in ["time.npy", "a/position.npy", "b/omega.npy", "b/energy_bend.npy"] {
+        assert!(names.iter().any(|n| n == key), "{key} missing from {names:?}");
+    }
+    rejects(
+        "joint end",
+        &text.replace("second = \"b.base\"", "second = \"c.base\""),
+        &[],
+        &[
+            "joint[0].second = \"c.base\" is outside the allowed range of ends of the rods \"a\", \"b\"",
+        ],
+    );
+    rejects(
+        "joint side",
+        &text.replace("second = \"b.base\"", "second = \"b.middle\""),
+        &[],
+        &["of the form \"<rod name>.base\" or \"<rod name>.tip\""],
+    );
+    rejects(
+        "load without a rod",
+        &format!("{text}\n[[load]]\nkind = \"tip_force\"\nvalue = [0.0, 1.0e-4, 0.0]\n"),
+        &[],
+        &["load[0].rod: missing: with several rods, name one of \"a\", \"b\""],
+    );
+    rejects(
+        "duplicate names",
+        &text.replace("name = \"b\"", "name = \"a\""),
+        &[],
+        &["rod[1].name = \"a\" is outside the allowed range of names not used by another rod"],
+    );
+}
+
+#[test]
+fn a_controlled_run_accepts_loads_per_length_damping_numerics_and_moving_obstacles() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(workspace().join("scenarios/paper/two-targets.toml"))
+        .unwrap()
+        .replace("duration = 4.0", "duration = 0.02")
+        .replace("rate = 10.0 ", "rate = 10.0\ngamma = 0.001 ")
+        + "\n[numerics]\nguard_interval = 50\nenergy_consistent = true\n\
+           \n[[load]]\nkind = \"gravity\"\nvalue = [0.0, -0.1, 0.0]\n\
+           \n[[obstacle]]\nkind = \"sphere\"\ncenter = [0.1, -0.05, 0.0]\ndiameter = 0.02\nvelocity = [0.0, 0.1, 0.0]\n";
+    let out = run_ok(tmp.path(), "controlled", &text);
+    let s = summary(&out);
+    assert_eq!(s["status"], "completed");
+    assert_eq!(s["controlled"], true);
+    assert!(out.join("distance.csv").is_file() && out.join("series.npz").is_file());
+    assert!(s["control"]["final_distance"].as_f64().unwrap().is_finite());
+}
+
+#[test]
+fn pyelastica_damping_protocol_has_one_rate() {
+    rejects(
+        "protocol",
+        &TINY.replace("rate = 10.0", "rate = 10.0\ngamma = 0.01\nprotocol = \"pyelastica\""),
+        &[],
+        &["damping.gamma = 0.01 is outside the allowed range of 0 with protocol = \"pyelastica\""],
+    );
+}
+
+#[test]
+fn initial_state_errors_name_the_file_and_the_mismatch() {
+    let tmp = tempfile::tempdir().unwrap();
+    run_ok(tmp.path(), "first", TINY);
+    rejects(
+        "missing file",
+        &format!("{TINY}\n[initial_state]\nfile = \"nowhere/trajectory.npz\"\n"),
+        &[],
+        &["initial_state.file: cannot open", "nowhere/trajectory.npz"],
+    );
+    // Same folder layout as `rejects` uses: the earlier run is copied beside bad.toml.
+    let twenty = TINY.replace("n_elements = 10", "n_elements = 20");
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "a.toml", TINY);
+    let o = octoarm(&["run", "-q", "a.toml", "--out", "a"], dir.path());
+    assert!(o.status.success());
+    write(
+        dir.path(),
+        "b.toml",
+        &format!("{twenty}\n[initial_state]\nfile = \"a/trajectory.npz\"\nframe = 3\n"),
+    );
+    let o = octoarm(&["run", "b.toml", "--out", "b"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("`position` has frames of shape [11, 3]; rod \"rod\" with 20 elements needs [21, 3]"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path().join("b").exists());
+    write(
+        dir.path(),
+        "c.toml",
+        &format!("{TINY}\n[initial_state]\nfile = \"a/trajectory.npz\"\nframe = 99\n"),
+    );
+    let o = octoarm(&["run", "c.toml", "--out", "c"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("initial_state.frame: 99 is outside the allowed range [-51, 50]"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -113,7 +113,7 @@ pub enum StepError {
         index: usize,
         /// Name of the rod, in a system of several rods (None for a lone rod or a system-wide
         /// quantity).
-        rod: Option<String>,
+        rod: Option<Box<str>>,
         /// Simulated time in s.
         time: f64,
         /// Step count.
@@ -127,7 +127,7 @@ pub enum StepError {
     },
 }
 
-fn rod_prefix(rod: &Option<String>) -> String {
+fn rod_prefix(rod: &Option<Box<str>>) -> String {
     match rod {
         Some(name) => format!("rod `{name}`, "),
         None => String::new(),

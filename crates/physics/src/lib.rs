@@ -51,6 +51,6 @@ pub use model::{Material, RodModel, StraightRod};
 pub use schedule::Schedule;
 pub use simulation::Simulation;
 pub use state::{RodAccess, RodState, RodView, SystemState};
-pub use step::{check, rod_energies, step, Workspace};
+pub use step::{check, joint_energy, rod_energies, step, Workspace};
 pub use store::{Mat3s, Vec3s};
 pub use system::{RestChange, Rod, RodSpec, RodSystem, Settings, SystemBuilder};

@@ -155,7 +155,7 @@ fn total_energy(
                 &rod.model,
                 &v,
                 &rs[rod.elements()],
-                &rs_k(rk, rod),
+                rs_k(rk, rod),
                 ec,
             )
             .total()
@@ -174,6 +174,30 @@ fn rest_checksum(sigma: &[Vec3], kappa: &[Vec3]) -> f64 {
         sum += (i as f64 + 1.0) * (v[0] + 2.0 * v[1] + 3.0 * v[2]);
     }
     sum
+}
+
+/// Elastic energy stored in the joints' springs [J] (½ k |Δx|² + ½ k_t |θ|² per joint).
+pub fn joint_energy(system: &RodSystem, state: &SystemState) -> f64 {
+    system
+        .joints
+        .iter()
+        .map(|j| {
+            let (a, b) = (&system.rods[j.first.rod], &system.rods[j.second.rod]);
+            let node = [
+                a.at.node + j.first.side.node(a.n_elements()),
+                b.at.node + j.second.side.node(b.n_elements()),
+            ];
+            let elem = [
+                a.at.element + j.first.side.element(a.n_elements()),
+                b.at.element + j.second.side.element(b.n_elements()),
+            ];
+            let (q1, q2) = (state.director.get(elem[0]), state.director.get(elem[1]));
+            j.energy(
+                [state.position.get(node[0]), state.position.get(node[1])],
+                [&q1, &q2],
+            )
+        })
+        .sum()
 }
 
 /// Energies of rod `r` of `state` against the rest strains in force at the state's time [J].
@@ -616,7 +640,7 @@ fn unstable(system: &RodSystem, state: &SystemState, f: Failure) -> StepError {
         )
     };
     let rod = match f.rod {
-        Some(r) if system.rods.len() > 1 => Some(system.rods[r].name.clone()),
+        Some(r) if system.rods.len() > 1 => Some(system.rods[r].name.clone().into_boxed_str()),
         _ => None,
     };
     StepError::Unstable {

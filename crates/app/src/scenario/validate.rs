@@ -93,7 +93,7 @@ fn count(key: &str, v: usize, lo: usize, hi: usize) -> Result<(), Invalid> {
 
 fn increasing(key: &str, t: &[f64]) -> Result<(), Invalid> {
     for (i, w) in t.windows(2).enumerate() {
-        if !(w[1] > w[0]) {
+        if w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater) {
             return Err(bad(
                 &format!("{key}[{}]", i + 1),
                 w[1],
