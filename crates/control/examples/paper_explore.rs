@@ -1,8 +1,19 @@
 //! Explore the paper's experiments: `cargo run --release -p octoarm-control --example
-//! paper_explore -- <a|b|c|d> [key=value ...]` prints d(t) every 0.1 s, the penetration and the
+//! paper_explore -- <a|b|c|d> [key=value ...]` runs one in closed loop with `ShapingController`
+//! (updated every `every` steps, as the application's pipeline does; the scenarios in
+//! `scenarios/paper/` are the reference runs) and prints d(t) every 0.1 s, the penetration and the
 //! summary. Keys (C's remedies): trust=<form time s>, notrust=1, presolve=1, iters=<n>,
-//! every=<steps>, beta=<contact>, via=<x,y[;x,y...]>@<until s>, offline=1, ramp=<s>, duration=<s>.
-use octoarm_control::{run_experiment, ExperimentSpec, NoFrames, SolverMode, TargetPhase};
+//! every=<steps>, beta=<contact>, zeta=<contact>, via=<x,y[;x,y...]>@<until s>, offline=1,
+//! ramp=<s>, duration=<s>, damping=<1/s>.
+use octoarm_control::{
+    Controller, DesignMode, GraspSpec, ShapingController, ShapingControllerConfig, SolverConfig,
+    SphereSpec, TargetPhase, TaskSchedule,
+};
+use octoarm_physics::{
+    contact_energy, max_penetration, ContactParams, Damping, Settings, Simulation, Sphere,
+    StraightRod,
+};
+use std::time::Instant;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -57,34 +68,28 @@ fn main() {
     }
     let which = args.first().map(String::as_str).unwrap_or("c");
     let mut spec = match which {
-        "a" => ExperimentSpec::paper_a(),
-        "b" => ExperimentSpec::paper_b(),
-        "d" => ExperimentSpec::paper_d(),
-        _ => ExperimentSpec::paper_c(),
+        "a" => Spec::paper_a(),
+        "b" => Spec::paper_b(),
+        "d" => Spec::paper_d(),
+        _ => Spec::paper_c(),
     };
     for kv in &args[1..] {
         let (k, v) = kv.split_once('=').expect("key=value");
         match k {
             "trust" | "iters" | "every" | "notrust" | "presolve" => {
-                if let SolverMode::Online {
-                    update_every,
-                    iterations_per_update,
-                    trust_form_time,
-                    presolve,
-                } = &mut spec.mode
-                {
+                if let Some(online) = &mut spec.online {
                     match k {
-                        "trust" => *trust_form_time = Some(v.parse().unwrap()),
-                        "notrust" => *trust_form_time = None,
-                        "presolve" => *presolve = v == "1",
-                        "iters" => *iterations_per_update = v.parse().unwrap(),
-                        _ => *update_every = v.parse().unwrap(),
+                        "trust" => online.trust_form_time = Some(v.parse().unwrap()),
+                        "notrust" => online.trust_form_time = None,
+                        "presolve" => online.presolve = v == "1",
+                        "iters" => online.iterations_per_update = v.parse().unwrap(),
+                        _ => spec.update_every = v.parse().unwrap(),
                     }
                 }
             }
             "beta" => spec.contact.beta = v.parse().unwrap(),
             "zeta" => spec.contact.zeta = v.parse().unwrap(),
-            "offline" => spec.mode = SolverMode::Offline,
+            "offline" => spec.online = None,
             "ramp" => spec.ramp_time = v.parse().unwrap(),
             "duration" => spec.duration = v.parse().unwrap(),
             "damping" => spec.damping_rate = v.parse().unwrap(),
@@ -101,61 +106,281 @@ fn main() {
                         .collect();
                     path.push([c[0], c[1], 0.0]);
                 }
-                spec.via_points = TargetPhase::polyline(&path, 0.0, until);
-                spec.via_until = until;
+                spec.schedule.via_points = TargetPhase::polyline(&path, 0.0, until);
+                spec.schedule.via_until = until;
             }
             _ => panic!("unknown key {k}"),
         }
     }
-    struct Print;
-    impl octoarm_control::ExperimentSink for Print {
-        fn frame(&mut self, f: &octoarm_control::Frame) {
-            if (f.time * 100.0).round() as i64 % 20 == 0 {
-                let d = f.desired[f.desired.len() - 1];
-                let t = f.design_target.unwrap_or([f64::NAN; 3]);
+    run(&spec);
+}
+
+/// Online design settings of an experiment.
+#[derive(Debug, Clone, Copy)]
+struct Online {
+    iterations_per_update: usize,
+    trust_form_time: Option<f64>,
+    presolve: bool,
+}
+
+/// One experiment: the task, the design schedule and the simulation settings (the paper's
+/// experiments as in `scenarios/paper/*.toml`).
+#[derive(Debug, Clone)]
+struct Spec {
+    schedule: TaskSchedule,
+    solver: SolverConfig,
+    /// Online design (None: offline designs).
+    online: Option<Online>,
+    /// Steps between controller updates (online iterations, ramp increments).
+    update_every: u64,
+    ramp_time: f64,
+    grasp_stages: usize,
+    contact: ContactParams,
+    dt: f64,
+    duration: f64,
+    damping_rate: f64,
+}
+
+impl Spec {
+    fn common() -> Self {
+        Self {
+            schedule: TaskSchedule {
+                targets: Vec::new(),
+                via_points: Vec::new(),
+                via_until: 0.0,
+                obstacles: Vec::new(),
+                grasp: None,
+                mu_tip: 1.0e3,
+                xi: 1.0e5,
+                length: 0.2,
+            },
+            solver: SolverConfig::default(),
+            online: None,
+            update_every: 100,
+            ramp_time: 0.0,
+            grasp_stages: 4,
+            contact: ContactParams::default(),
+            dt: 1.0e-5,
+            duration: 4.0,
+            damping_rate: 10.0,
+        }
+    }
+
+    fn online_default() -> Option<Online> {
+        Some(Online {
+            iterations_per_update: 10,
+            trust_form_time: None,
+            presolve: false,
+        })
+    }
+
+    fn paper_a() -> Self {
+        let mut s = Self::common();
+        s.schedule.targets = vec![
+            TargetPhase::fixed([0.09, 0.09, 0.0], 0.0),
+            TargetPhase::fixed([0.0, 0.02, 0.0], 1.8),
+        ];
+        s
+    }
+
+    fn paper_b() -> Self {
+        let mut s = Self::common();
+        s.schedule.targets = vec![TargetPhase {
+            from: 0.0,
+            position: [0.12, 0.09, 0.0],
+            velocity: [-0.01, 0.0, 0.0],
+        }];
+        s.online = Some(Online {
+            presolve: true,
+            ..Self::online_default().unwrap()
+        });
+        s
+    }
+
+    fn paper_c() -> Self {
+        let mut s = Self::common();
+        s.schedule.targets = vec![TargetPhase::fixed([0.09, 0.09, 0.0], 0.0)];
+        s.schedule.obstacles = vec![
+            SphereSpec {
+                center: [0.054, 0.06, 0.0],
+                diameter: 0.08,
+            },
+            SphereSpec {
+                center: [0.154, 0.06, 0.0],
+                diameter: 0.08,
+            },
+        ];
+        s.schedule.via_points = TargetPhase::polyline(
+            &[
+                [0.20, 0.0, 0.0],
+                [0.13, 0.015, 0.0],
+                [0.105, 0.03, 0.0],
+                [0.105, 0.09, 0.0],
+                [0.09, 0.09, 0.0],
+            ],
+            0.0,
+            2.0,
+        );
+        s.schedule.via_until = 2.0;
+        s.online = Self::online_default();
+        s
+    }
+
+    fn paper_d() -> Self {
+        let mut s = Self::common();
+        s.schedule.grasp = Some(GraspSpec {
+            object: SphereSpec {
+                center: [0.06, 0.03, 0.0],
+                diameter: 0.04,
+            },
+            weight: 1.0e3,
+            from_fraction: 0.4,
+        });
+        s.solver.floor_diameter = 8.0e-3;
+        s.grasp_stages = 10;
+        s.ramp_time = 1.5;
+        s
+    }
+
+    fn config(&self) -> ShapingControllerConfig {
+        let mode = match self.online {
+            Some(o) => DesignMode::Online {
+                iterations_per_update: o.iterations_per_update,
+                trust_form_time: o.trust_form_time,
+                presolve: o.presolve,
+            },
+            None => DesignMode::Offline {
+                ramp_time: self.ramp_time,
+                grasp_stages: self.grasp_stages,
+            },
+        };
+        ShapingControllerConfig {
+            solver: self.solver,
+            mode,
+            period: self.update_every as f64 * self.dt,
+        }
+    }
+}
+
+/// Run one experiment in closed loop; print d(t) every 0.1 s, the design tip every 0.2 s and the
+/// summary.
+fn run(spec: &Spec) {
+    let wall = Instant::now();
+    let (model, state) = StraightRod::paper_arm().build().unwrap();
+    let length = model.length();
+    let mut sim = Simulation::new(model, state, Settings::with_dt(spec.dt)).unwrap();
+    sim.set_damping(Damping::mass_proportional(spec.damping_rate))
+        .unwrap();
+    let sch = &spec.schedule;
+    for s in sch
+        .obstacles
+        .iter()
+        .chain(sch.grasp.as_ref().map(|g| &g.object))
+    {
+        sim.add_obstacle(Sphere::fixed(s.center, 0.5 * s.diameter))
+            .unwrap();
+    }
+    sim.set_contact(spec.contact).unwrap();
+    let mut ctrl =
+        ShapingController::new(&sim.system, &sim.state, 0, sch.clone(), spec.config()).unwrap();
+    let every = spec.update_every.max(1);
+    let total = (spec.duration / spec.dt).round() as u64;
+    let (sample_every, frame_every) = (100u64, 1000u64);
+    let (mut d0, mut max_d, mut max_pen, mut last_d) = (f64::NAN, 0.0f64, 0.0f64, f64::NAN);
+    // Distances sampled every 1 ms with their time, for the settling times.
+    let mut series: Vec<(f64, f64)> = Vec::new();
+    for k in 0..=total {
+        let t = sim.time();
+        if k < total && k % every == 0 {
+            ctrl.update(t, &sim.system, &sim.state, &mut sim.actuation)
+                .expect("update");
+        }
+        if k % frame_every == 0 && (t * 100.0).round() as i64 % 20 == 0 {
+            let design_target = ctrl
+                .signals(t, &sim.system, &sim.state)
+                .design_target
+                .unwrap_or([f64::NAN; 3]);
+            let shape = ctrl.desired_shape().expect("a shape");
+            let d = shape[shape.len() - 1];
+            println!(
+                "  frame t = {t:.2}: design tip ({:.2}, {:.2}) cm, design target ({:.2}, {:.2}) cm",
+                d[0] * 100.0,
+                d[1] * 100.0,
+                design_target[0] * 100.0,
+                design_target[1] * 100.0
+            );
+        }
+        if k % sample_every == 0 || k == total {
+            let sig = ctrl.signals(t, &sim.system, &sim.state);
+            let view = sim.view();
+            let spheres = sim.system.obstacles();
+            let contact = contact_energy(sim.model(), &view, spheres, sim.system.contact(), t);
+            let (pen, _) = max_penetration(sim.model(), &view, spheres, t);
+            let h = sig.shaped.map_or(f64::NAN, |e| e.total()) + contact;
+            if k == 0 {
+                d0 = sig.distance;
+            }
+            max_d = max_d.max(sig.distance);
+            max_pen = max_pen.max(pen);
+            last_d = sig.distance;
+            series.push((t, sig.distance));
+            if k % (100 * sample_every) == 0 {
+                let tip = sim.tip();
                 println!(
-                    "  frame t = {:.2}: design tip ({:.2}, {:.2}) cm, design target ({:.2}, {:.2}) cm",
-                    f.time, d[0] * 100.0, d[1] * 100.0, t[0] * 100.0, t[1] * 100.0
+                    "t = {t:.2} s  d = {:.4}  tip = ({:.2}, {:.2}) cm  pen = {:.2} mm  H = {h:.3e} J",
+                    sig.distance,
+                    tip[0] * 100.0,
+                    tip[1] * 100.0,
+                    pen * 1e3,
                 );
             }
         }
+        if k == total {
+            break;
+        }
+        sim.step().expect("step");
     }
-    let _ = NoFrames;
-    let out = run_experiment(&spec, &mut Print).expect("run");
-    for s in out.series.iter().step_by(100) {
-        println!(
-            "t = {:.2} s  d = {:.4}  tip = ({:.2}, {:.2}) cm  pen = {:.2} mm  H = {:.3e} J",
-            s.time,
-            s.distance,
-            s.tip[0] * 100.0,
-            s.tip[1] * 100.0,
-            s.penetration * 1e3,
-            s.hamiltonian
-        );
+    // Settling time (d ≤ 0.02 for good) of each task-target phase (a grasp is one segment).
+    let mut starts: Vec<f64> = sch.targets.iter().map(|p| p.from.max(0.0)).collect();
+    if starts.is_empty() {
+        starts.push(0.0);
     }
-    let sm = &out.summary;
-    let late_err = sm
+    starts[0] = 0.0;
+    let mut settling = Vec::new();
+    for (i, &start) in starts.iter().enumerate() {
+        let end = starts.get(i + 1).copied().unwrap_or(f64::INFINITY);
+        let mut settle = None;
+        for &(t, d) in series
+            .iter()
+            .filter(|s| s.0 >= start - 1e-12 && s.0 < end - 1e-12)
+        {
+            if d > 0.02 {
+                settle = None;
+            } else if settle.is_none() {
+                settle = Some(t);
+            }
+        }
+        settling.push((start, settle));
+    }
+    let rep = ctrl.report();
+    let late_err = rep
         .update_tip_errors
         .iter()
         .filter(|e| e.0 >= 0.5)
-        .map(|e| e.1 / out.length)
+        .map(|e| e.1 / length)
         .fold(0.0, f64::max);
-    let max_d = out.series.iter().map(|s| s.distance).fold(0.0, f64::max);
     println!(
-        "d(0) = {:.4}, max d = {max_d:.4}, largest online design tip error after 0.5 s = {late_err:.4} L0",
-        out.series[0].distance
+        "d(0) = {d0:.4}, max d = {max_d:.4}, largest online design tip error after 0.5 s = {late_err:.4} L0"
     );
     println!(
-        "final d = {:.4}, reached = {}, max penetration = {:.3} mm, segments = {:?}, sweeps = {}, failed updates = {}, design tip errors = {:?}, design pen = {:?}, wall = {:.1} s",
-        sm.final_distance,
-        sm.reached,
-        sm.max_penetration * 1e3,
-        sm.segments,
-        sm.sweeps,
-        sm.failed_updates,
-        sm.design_tip_errors,
-        sm.design_penetrations,
-        sm.wall_time.as_secs_f64()
+        "final d = {last_d:.4}, reached = {}, max penetration = {:.3} mm, settling (segment start, time) = {settling:?}, sweeps = {}, failed updates = {}, design tip errors = {:?}, design pen = {:?}, wall = {:.1} s",
+        last_d <= 0.02,
+        max_pen * 1e3,
+        rep.sweeps,
+        rep.failed_updates,
+        rep.design_tip_errors,
+        rep.design_penetrations,
+        wall.elapsed().as_secs_f64()
     );
 }
 

@@ -203,7 +203,9 @@ impl EnergyShapingController {
         )
     }
 
-    /// H̄_h of the state [J] in the default (not energy-consistent) model.
+    /// H̄_h of the state [J] in the default (not energy-consistent) model. For a simulation with
+    /// `energy_consistent = true` use `shaped_energies(model, state, true).total()`: the
+    /// Lyapunov function must use the simulation's own energy.
     pub fn shaped_hamiltonian(&self, model: &RodModel, state: &impl RodAccess) -> f64 {
         self.shaped_energies(model, state, false).total()
     }

@@ -31,13 +31,13 @@ fn experiment_a_two_targets() {
     let mut ctrl = EnergyShapingController::new(&model, ShapingConfig::default()).unwrap();
     ctrl.set_design(&model, &designs[0].0).unwrap();
     ctrl.attach(&mut sim).unwrap();
-    let d = |sim: &Simulation, t: [f64; 3]| dist(sim.state.tip(), t) / L0;
+    let d = |sim: &Simulation, t: [f64; 3]| dist(sim.tip(), t) / L0;
     // Segment 1, sampled every 1 ms.
     let mut settle1 = 0.0;
     for _ in 0..1800 {
         ctrl.run(&mut sim, 100).unwrap();
         if d(&sim, targets[0]) > 0.02 {
-            settle1 = sim.state.time;
+            settle1 = sim.time();
         }
     }
     let d_before = d(&sim, targets[0]);
@@ -47,12 +47,12 @@ fn experiment_a_two_targets() {
     for _ in 0..2200 {
         ctrl.run(&mut sim, 100).unwrap();
         if d(&sim, targets[1]) > 0.02 {
-            settle2 = sim.state.time;
+            settle2 = sim.time();
         }
     }
     let d_end = d(&sim, targets[1]);
     let shape_err = sim
-        .state
+        .rod_state()
         .position
         .iter()
         .zip(&designs[1].1)

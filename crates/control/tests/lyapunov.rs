@@ -17,6 +17,14 @@ use common::*;
 use octoarm_control::{EnergyShapingController, OfflineSolver, ShapingConfig, SolverConfig, Task};
 use octoarm_physics::{Settings, Simulation};
 
+/// H̄ of the simulation's state in the simulation's own model (dilatation-scaled energies when
+/// its energy-consistent correction is on, as the former `shaped_hamiltonian` chose by itself;
+/// the law's `shaped_hamiltonian` now always takes the default model).
+fn shaped_h(ctrl: &EnergyShapingController, sim: &Simulation) -> f64 {
+    ctrl.shaped_energies(sim.model(), &sim.view(), sim.settings().energy_consistent)
+        .total()
+}
+
 fn setup(rate: f64) -> (Simulation, EnergyShapingController) {
     let (model, state) = paper_arm();
     let mut solver = OfflineSolver::new(&model, &state, SolverConfig::default()).unwrap();
@@ -24,14 +32,8 @@ fn setup(rate: f64) -> (Simulation, EnergyShapingController) {
         .solve(&Task::reach([0.09, 0.09, 0.0], 1e3), None)
         .unwrap();
     let mut sim = Simulation::new(model.clone(), state, Settings::with_dt(1e-5)).unwrap();
-    let mut ctrl = EnergyShapingController::new(
-        &model,
-        ShapingConfig {
-            damping_rate: rate,
-            ..ShapingConfig::default()
-        },
-    )
-    .unwrap();
+    let mut ctrl =
+        EnergyShapingController::new(&model, ShapingConfig { damping_rate: rate }).unwrap();
     ctrl.set_design(&model, &sol.strains).unwrap();
     ctrl.attach(&mut sim).unwrap();
     (sim, ctrl)
@@ -40,14 +42,14 @@ fn setup(rate: f64) -> (Simulation, EnergyShapingController) {
 #[test]
 fn shaped_hamiltonian_decreases_with_damping() {
     let (mut sim, mut ctrl) = setup(10.0);
-    let h0 = ctrl.shaped_hamiltonian(&sim.model, &sim.state);
+    let h0 = shaped_h(&ctrl, &sim);
     let mut running_min = h0;
     let mut max_rise: f64 = 0.0;
     let mut rises = 0;
     let mut prev = h0;
     for _ in 0..30_000 {
         ctrl.step(&mut sim).unwrap();
-        let h = ctrl.shaped_hamiltonian(&sim.model, &sim.state);
+        let h = shaped_h(&ctrl, &sim);
         if h > prev {
             rises += 1;
         }
@@ -61,14 +63,14 @@ fn shaped_hamiltonian_decreases_with_damping() {
     );
     assert!(max_rise <= 1e-4 * h0);
     // Sampled every 1000 steps up to 1.8 s: strictly decreasing.
-    let mut last = ctrl.shaped_hamiltonian(&sim.model, &sim.state);
+    let mut last = shaped_h(&ctrl, &sim);
     for _ in 0..150 {
         ctrl.run(&mut sim, 1000).unwrap();
-        let h = ctrl.shaped_hamiltonian(&sim.model, &sim.state);
+        let h = shaped_h(&ctrl, &sim);
         assert!(
             h < last,
             "H rose from {last:e} to {h:e} at t = {}",
-            sim.state.time
+            sim.time()
         );
         last = h;
     }
@@ -79,11 +81,11 @@ fn shaped_hamiltonian_decreases_with_damping() {
 #[test]
 fn shaped_hamiltonian_is_conserved_without_damping() {
     let (mut sim, mut ctrl) = setup(0.0);
-    let h0 = ctrl.shaped_hamiltonian(&sim.model, &sim.state);
+    let h0 = shaped_h(&ctrl, &sim);
     let mut worst: f64 = 0.0;
     for _ in 0..300 {
         ctrl.run(&mut sim, 100).unwrap();
-        let h = ctrl.shaped_hamiltonian(&sim.model, &sim.state);
+        let h = shaped_h(&ctrl, &sim);
         worst = worst.max((h - h0).abs());
     }
     println!(
@@ -166,17 +168,11 @@ fn controller(
     w: &StrainField,
     sim: &mut Simulation,
 ) -> EnergyShapingController {
-    let mut ctrl = EnergyShapingController::new(
-        model,
-        ShapingConfig {
-            damping_rate: rate,
-            ..ShapingConfig::default()
-        },
-    )
-    .unwrap();
+    let mut ctrl =
+        EnergyShapingController::new(model, ShapingConfig { damping_rate: rate }).unwrap();
     ctrl.set_design(model, w).unwrap();
     ctrl.attach(sim).unwrap();
-    assert_eq!(sim.damping.rate, rate);
+    assert_eq!(sim.damping().rate, rate);
     ctrl
 }
 
@@ -196,7 +192,7 @@ struct Monitor {
 
 impl Monitor {
     fn start(sim: &Simulation, ctrl: &EnergyShapingController) -> Self {
-        let h0 = ctrl.shaped_hamiltonian(&sim.model, &sim.state);
+        let h0 = shaped_h(ctrl, sim);
         assert!(h0 > 0.0);
         Self {
             h0,
@@ -212,7 +208,7 @@ impl Monitor {
     fn advance(&mut self, sim: &mut Simulation, ctrl: &mut EnergyShapingController, steps: usize) {
         for _ in 0..steps {
             ctrl.step(sim).unwrap();
-            let h = ctrl.shaped_hamiltonian(&sim.model, &sim.state);
+            let h = shaped_h(ctrl, sim);
             assert!(h.is_finite());
             if h > self.last {
                 self.rises += 1;
@@ -273,13 +269,13 @@ fn undamped_deviation(
     ctrl: &mut EnergyShapingController,
     steps: usize,
 ) -> f64 {
-    assert_eq!(sim.damping.rate, 0.0);
+    assert_eq!(sim.damping().rate, 0.0);
     let mut mon = Monitor::start(sim, ctrl);
     mon.advance(sim, ctrl, steps);
     let dev = mon.max_dev / mon.h0;
     println!(
         "{label}, no damping (energy-consistent: {}): H0 = {:.4e} J; largest |H - H0| over {:.2} s (every step) = {dev:.2e} H0",
-        sim.settings.energy_consistent,
+        sim.settings().energy_consistent,
         mon.h0,
         steps as f64 * 1e-5
     );
@@ -297,7 +293,7 @@ fn experiment_a_second_segment() {
     let mut sim = Simulation::new(model.clone(), state.clone(), settings(false)).unwrap();
     let mut ctrl = controller(&model, 10.0, &w1, &mut sim);
     ctrl.run(&mut sim, STEPS_1_8_S as u64).unwrap();
-    assert!((sim.state.time - 1.8).abs() < 1e-9);
+    assert!((sim.time() - 1.8).abs() < 1e-9);
     let at_switch = sim.clone();
     ctrl.set_design(&model, &w2).unwrap();
     damped_interval(

@@ -7,21 +7,21 @@
 //!   1e-4 H_0, spec §4.6) and falls below 1e-2 H_0 by the end of the first segment; and A's
 //!   acceptance numbers: d(1.8⁻) ≤ 0.02; the switch makes d jump to 0.55–0.59
 //!   (= |r*₁ − r*₂|/L0 = 0.57); settling ≤ 1.5 s after the switch; d(4 s) ≤ 0.01.
+//! * B (4 s, not shortened), online: every update succeeds and is recorded (4000 updates, one
+//!   design tip error per update, none failed); after 0.5 s the design's tip error at each update
+//!   is ≤ 0.005 L0; and B's acceptance number d ≤ 0.04 on [2, 4] s. (Spec §5.3's "d never
+//!   exceeds d(0)" is infeasible from rest: an ignored test below.)
 //! * D (4 s, not shortened): after the 1.5 s ramp the design is constant and the shaped
 //!   Hamiltonian with the contact energy does not rise (same bound); and D's acceptance numbers:
 //!   weighted gap d_D(4 s) ≤ 0.01, settling (band 0.02) ≤ 2.5 s, penetration ≤ 1e-3 L0.
-//! * B, online (0.6 s of the 4 s run): every update succeeds and is recorded (one design tip
-//!   error per update call, no failed update), and after 0.5 s the design's tip error at each
-//!   update is ≤ 0.005 L0.
 //!
 //! Moved to the application: the end-to-end acceptance of the four experiments at full length
 //! now lives in the scenario files' `[[acceptance]]` tables, asserted by `crates/app/tests/`
-//! (regression.rs). From this file that is: B's d ≤ 0.04 on [2, 4] s and its design tip error
-//! ≤ 0.005 L0 after 0.5 s over the whole 4 s (here only up to 0.6 s), with the 4000 updates of a
-//! 4 s run (the update count is the pipeline's schedule now, "never at the last instant"); C's
-//! d(4 s) ≤ 0.02 and penetration ≤ 1 mm = 0.005 L0. A's and D's acceptance numbers are in their
-//! scenario tables too and stay here as well, because their runs are needed for the Lyapunov
-//! claims anyway.
+//! (regression.rs). Only experiment C's claims left this file: d(4 s) ≤ 0.02 (the arm passes the
+//! spheres instead of staying pinned, d ≈ 0.58) and the arm's surface never penetrates a sphere by
+//! more than 1 mm = 0.005 L0 (scenarios/paper/obstacles.toml). The acceptance numbers of A, B and
+//! D are in their scenario tables too and stay here as well, because the runs are needed for the
+//! controller's own claims (Lyapunov function, signals, online updates) anyway.
 //!
 //! Independent reference: distances of A are recomputed here from the tip and the fixture's
 //! targets; the Lyapunov function is the physics crate's energy with the design rest strains
@@ -85,21 +85,34 @@ fn experiment_a_two_targets() {
 }
 
 #[test]
-fn experiment_b_online_design_tracks_the_moving_target() {
-    // 0.6 s: the first 100 updates after 0.5 s (the full 4 s run is the app's acceptance).
+fn experiment_b_moving_target() {
     let (mut sim, mut ctrl) = paper_closed_loop(paper_b_schedule(), paper_b_config());
-    let (series, report) = run_closed_loop(&mut sim, &mut ctrl, 0.6, 1e-3);
-    print_run("experiment B (0.6 s)", &series, &report);
+    let (series, report) = run_closed_loop(&mut sim, &mut ctrl, 4.0, 1e-3);
+    print_run("experiment B", &series, &report);
+    let late = series
+        .iter()
+        .filter(|s| s.time >= 2.0)
+        .map(|s| s.distance)
+        .fold(0.0, f64::max);
     println!(
-        "d(0) = {:.3}, d(0.3) = {:.3}, d(0.6) = {:.3}",
+        "d(0) = {:.3}, d(1.2) = {:.3}, max d on [2, 4] s = {late:.4}",
         series[0].distance,
-        d_at(&series, 0.3),
-        series.last().unwrap().distance
+        d_at(&series, 1.2)
     );
+    assert!(late <= 0.04);
+    // Spec §5.3: the desired shape's tip error at each update after 0.5 s ≤ 0.005 L0. The online
+    // sweeps start from an offline design of the initial target (pre-solve) and then track the
+    // moving target with 10 warm-started L-BFGS iterations per 1 ms update. A design that fell
+    // behind the target (e.g. a trust region freezing small strains: 0.29 L0 at 0.5 s) fails this.
+    // Every update (t = 0, 1 ms, …, 3.999 s) succeeds and is recorded.
     assert_eq!(report.failed_updates, 0);
-    assert_eq!(report.update_tip_errors.len(), 600);
+    assert_eq!(report.update_tip_errors.len(), 4000);
     for (k, e) in report.update_tip_errors.iter().enumerate() {
-        assert!((e.0 - k as f64 * 1e-3).abs() < 1e-12, "update {k} at {}", e.0);
+        assert!(
+            (e.0 - k as f64 * 1e-3).abs() < 1e-12,
+            "update {k} at {}",
+            e.0
+        );
     }
     let worst = report
         .update_tip_errors
@@ -107,7 +120,7 @@ fn experiment_b_online_design_tracks_the_moving_target() {
         .filter(|e| e.0 >= 0.5)
         .map(|e| e.1 / L0)
         .fold(0.0, f64::max);
-    println!("largest design tip error on [0.5, 0.6) s = {worst:.4} L0");
+    println!("largest design tip error after 0.5 s = {worst:.2e} L0");
     assert!(worst <= 0.005);
 }
 

@@ -14,7 +14,7 @@ mod common;
 use common::*;
 use octoarm_control::{OfflineSolver, Outcome, SolverConfig, StrainSpace, Task, UpdateRule};
 use octoarm_physics::{
-    Damping, Load, Material, RodModel, RodState, Settings, Simulation, StraightRod,
+    Damping, Load, Material, RodModel, RodState, Schedule, Settings, Simulation, StraightRod,
 };
 
 fn steady_state(
@@ -27,15 +27,17 @@ fn steady_state(
     let mut sim = Simulation::new(model.clone(), state.clone(), Settings::with_dt(dt)).unwrap();
     sim.set_damping(Damping::mass_proportional(4.0)).unwrap();
     // Ramp the force in over 1 s: applied at once it whips the thin tip past the guard.
-    sim.add_load(Load::NodeForce {
-        node: model.n_elements,
-        force,
-        ramp_time: 1.0,
-    })
+    sim.add_scheduled_load(
+        Load::NodeForce {
+            node: model.n_elements,
+            force,
+        },
+        Schedule::Ramp { duration: 1.0 },
+    )
     .unwrap();
     sim.run((seconds / dt).round() as u64).unwrap();
-    let vmax = sim
-        .state
+    let end = sim.rod_state();
+    let vmax = end
         .velocity
         .iter()
         .map(|v| dist(*v, [0.0; 3]))
@@ -43,7 +45,7 @@ fn steady_state(
     println!(
         "  dynamics: {seconds} s at dt {dt:.1e} s, largest node speed at the end {vmax:.2e} m/s"
     );
-    sim.state.position.clone()
+    end.position
 }
 
 fn compare(

@@ -102,13 +102,14 @@ impl Workspace {
         }
     }
 
-    /// Nodal forces [N] (lab) the actuation produced in the last step, system node order (zero
-    /// when no actuation was on).
+    /// Nodal forces [N] (lab) the actuation produced in the last step, system node order; None
+    /// when no actuation was on in that step.
     pub fn actuation_force(&self) -> Option<&crate::store::Vec3s> {
         self.actuation_used.then_some(&self.actuation.force)
     }
 
-    /// Element couples [N m] (material) the actuation produced in the last step.
+    /// Element couples [N m] (material) the actuation produced in the last step; None when no
+    /// actuation was on in that step.
     pub fn actuation_couple(&self) -> Option<&crate::store::Vec3s> {
         self.actuation_used.then_some(&self.actuation.couple)
     }
