@@ -207,7 +207,7 @@ pub fn run(
         .iter()
         .map(|c| steps_of(c.period(), dt))
         .collect();
-    let mut actuation = Actuation::zeros(system.n_nodes(), system.n_elements(), system.n_interior());
+    let mut actuation = Actuation::for_system(&system);
     let mut ws = Workspace::new(&system, &state);
     let guard_every = system.settings().guard_interval;
     let first_step = state.step;

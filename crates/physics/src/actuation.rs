@@ -53,6 +53,11 @@ impl Actuation {
         }
     }
 
+    /// Zero actuation sized for `system` (the only size `step` accepts).
+    pub fn for_system(system: &crate::system::RodSystem) -> Self {
+        Self::zeros(system.n_nodes(), system.n_elements(), system.n_interior())
+    }
+
     /// Set everything to zero and both parts off.
     pub fn clear(&mut self) {
         self.internal_stress.fill([0.0; 3]);

@@ -67,7 +67,7 @@ impl Simulation {
 
     /// A simulation of a built system at `state`.
     pub fn from_parts(system: RodSystem, state: SystemState) -> Self {
-        let actuation = Actuation::zeros(system.n_nodes(), system.n_elements(), system.n_interior());
+        let actuation = Actuation::for_system(&system);
         let workspace = Workspace::new(&system, &state);
         Self {
             system,

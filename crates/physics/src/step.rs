@@ -240,6 +240,13 @@ pub fn step(
     let settings = system.settings;
     let dt = settings.dt;
     let h = 0.5 * dt;
+    // Sizes are fixed when the actuation is made (`Actuation::for_system`); a mismatch is a
+    // programming error, not an input error.
+    debug_assert_eq!(
+        actuation.shape(),
+        (system.n_nodes, system.n_elements, system.n_interior),
+        "actuation sized for another system"
+    );
     ws.refresh_kick(system);
     let n_step = state.step;
 

@@ -22,6 +22,9 @@
 //! reused for the other) breaks (1); a clamp that holds the lab axes instead of the rod's own
 //! initial frame, or loads mixing lab and material frames, breaks (2).
 
+// Node and element loops index several views at once, as the comparisons need.
+#![allow(clippy::needless_range_loop)]
+
 use octoarm_physics::{
     Damping, EndCondition, Load, Mat3, RodAccess, RodSpec, Schedule, Settings, Simulation,
     StraightRod, SystemBuilder, Vec3,
