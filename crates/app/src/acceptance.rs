@@ -36,7 +36,8 @@ pub fn evaluate(
     claims
         .iter()
         .map(|a| {
-            let (measured, pass) = measure(a, series, summary, length, duration, end, &reached, &short);
+            let (measured, pass) =
+                measure(a, series, summary, length, duration, end, &reached, &short);
             Check {
                 claim: a.claim.clone(),
                 measured,

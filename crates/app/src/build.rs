@@ -192,7 +192,10 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
                 .set_rest_strains(s, k)
                 .map_err(|e| located(format!("{key}.{}", field_of(&e)), e))?;
         }
-        let shared_key = (rod.clone(), given.clone().filter(|_| r.rest_schedule.is_none()));
+        let shared_key = (
+            rod.clone(),
+            given.clone().filter(|_| r.rest_schedule.is_none()),
+        );
         let model = match models
             .iter()
             .find(|(g, s, _)| *g == shared_key.0 && *s == shared_key.1)
@@ -301,9 +304,7 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
             });
             let element = l.element.unwrap_or_else(|| {
                 let s = l.s.unwrap_or(0.0);
-                (0..n)
-                    .rfind(|&j| m.node_arc_length[j] <= s)
-                    .unwrap_or(0)
+                (0..n).rfind(|&j| m.node_arc_length[j] <= s).unwrap_or(0)
             });
             let v = l.value;
             let load = match l.kind {
@@ -359,7 +360,9 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
 pub fn task_schedule(cfg: &ScenarioConfig) -> Option<TaskSchedule> {
     let ctrl = cfg.controller.as_ref()?;
     let sv = cfg.solver.as_ref()?;
-    let r = cfg.rod_index(ctrl.rod.as_deref().unwrap_or("rod")).unwrap_or(0);
+    let r = cfg
+        .rod_index(ctrl.rod.as_deref().unwrap_or("rod"))
+        .unwrap_or(0);
     let (via_points, via_until) = match &cfg.via_path {
         Some(v) => (TargetPhase::polyline(&v.points, v.start, v.end), v.end),
         None => (Vec::new(), 0.0),

@@ -6,8 +6,8 @@ use crate::plot::{
     draw_disc, ensure_font, equal_chart, err, legend, mesh, mix_rgb, png_canvas, tick,
 };
 use crate::recorder::TrajectoryRecorder as Recorder;
-use octoarm_physics::Sphere;
 use anyhow::{anyhow, Result};
+use octoarm_physics::Sphere;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -353,7 +353,10 @@ impl crate::pipeline::Figures for CliFigures {
                 );
             }
         }
-        warn("energy.png", energy_png(&out.path("energy.png"), rec, title));
+        warn(
+            "energy.png",
+            energy_png(&out.path("energy.png"), rec, title),
+        );
     }
 }
 

@@ -18,9 +18,13 @@ pub fn apply(
     let path = scn.relative_path(&init.file);
     let at = |key: &str, msg: String| scn.error_at(key, format!("{key}: {msg}"));
     let names = npz_names(&path).map_err(|e| at("initial_state.file", format!("{e:#}")))?;
-    let times = read_npz_vector(&path, "time").map_err(|e| at("initial_state.file", format!("{e:#}")))?;
+    let times =
+        read_npz_vector(&path, "time").map_err(|e| at("initial_state.file", format!("{e:#}")))?;
     if times.is_empty() {
-        return Err(at("initial_state.file", format!("{} holds no frames", path.display())));
+        return Err(at(
+            "initial_state.file",
+            format!("{} holds no frames", path.display()),
+        ));
     }
     let frames = times.len();
     let index = match (init.frame, init.time) {
@@ -46,7 +50,10 @@ pub fn apply(
             if !(0..frames as i64).contains(&i) {
                 return Err(at(
                     "initial_state.frame",
-                    format!("{f} is outside the allowed range [-{frames}, {}]", frames - 1),
+                    format!(
+                        "{f} is outside the allowed range [-{frames}, {}]",
+                        frames - 1
+                    ),
                 ));
             }
             i as usize

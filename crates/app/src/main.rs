@@ -200,7 +200,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             let target = out.unwrap_or_else(|| octoarm::default_out_dir(&scn));
             let out = OutputDir::prepare(&target)?;
-            let bar = Progress::new(show_progress(cli.quiet)).bar(pipeline::planned_steps(&scn), "");
+            let bar =
+                Progress::new(show_progress(cli.quiet)).bar(pipeline::planned_steps(&scn), "");
             let update = |k: u64, t: f64| bar.update(k, t);
             let opts = RunOptions {
                 progress: Some(&update),

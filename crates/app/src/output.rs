@@ -368,7 +368,8 @@ fn read_npy_header<R: Read>(r: &mut R, name: &str) -> Result<Vec<usize>> {
 /// Names of the members of an `.npz` file (without `.npy`).
 pub fn npz_names(path: &Path) -> Result<Vec<String>> {
     let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let zip = ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))?;
+    let zip =
+        ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))?;
     Ok(zip
         .file_names()
         .map(|n| n.trim_end_matches(".npy").to_string())
@@ -392,7 +393,10 @@ pub fn read_npz_frame(path: &Path, name: &str, index: usize) -> Result<(Vec<usiz
         bail!("{name}: frame {index} requested, the array has {frames}");
     }
     let per: usize = rest.iter().product();
-    io::copy(&mut member.by_ref().take((index * per * 8) as u64), &mut io::sink())?;
+    io::copy(
+        &mut member.by_ref().take((index * per * 8) as u64),
+        &mut io::sink(),
+    )?;
     let mut bytes = vec![0u8; per * 8];
     member.read_exact(&mut bytes)?;
     let values = bytes
@@ -417,7 +421,11 @@ pub fn read_npz_vector(path: &Path, name: &str) -> Result<Vec<f64>> {
     let mut bytes = Vec::new();
     member.read_to_end(&mut bytes)?;
     if bytes.len() != shape[0] * 8 {
-        bail!("{name}: {} bytes of data for {} values", bytes.len(), shape[0]);
+        bail!(
+            "{name}: {} bytes of data for {} values",
+            bytes.len(),
+            shape[0]
+        );
     }
     Ok(bytes
         .chunks_exact(8)

@@ -46,7 +46,10 @@ pub fn paper_scenarios(
     match dir {
         None => {
             for (file, text) in SCENARIOS {
-                out.push(Scenario::from_str(&Path::new("scenarios/paper").join(file), text)?);
+                out.push(Scenario::from_str(
+                    &Path::new("scenarios/paper").join(file),
+                    text,
+                )?);
             }
         }
         Some(dir) => {
@@ -324,7 +327,13 @@ pub fn report_md(scenarios: &[Scenario], report: &PaperReport) -> String {
     for (i, (name, r)) in report.results.iter().enumerate() {
         let label = format!("{} {name}", letter(i));
         match r {
-            PaperResult::Ran(run) => match run.data.series.as_ref().and_then(|s| s.summary.as_ref()).filter(|_| run.failure.is_none()) {
+            PaperResult::Ran(run) => match run
+                .data
+                .series
+                .as_ref()
+                .and_then(|s| s.summary.as_ref())
+                .filter(|_| run.failure.is_none())
+            {
                 Some(sm) => {
                     let settling: Vec<String> = sm
                         .segments

@@ -331,11 +331,7 @@ pub fn shapes_png(
     if !spheres.is_empty() {
         side.draw(&Circle::new((30, y + 10), 10, OBSTACLE.filled()))
             .map_err(err)?;
-        let label = if spec.grasp {
-            "object"
-        } else {
-            "obstacle"
-        };
+        let label = if spec.grasp { "object" } else { "obstacle" };
         side.draw(&Text::new(label, (60, y), font.clone()))
             .map_err(err)?;
     }

@@ -184,8 +184,13 @@ pub fn run(
         },
         out.target().display()
     );
-    let mut trajectory =
-        TrajectoryRecorder::new(&system, save_every, cfg.n_frames() as usize, controlled, &out)?;
+    let mut trajectory = TrajectoryRecorder::new(
+        &system,
+        save_every,
+        cfg.n_frames() as usize,
+        controlled,
+        &out,
+    )?;
     let mut series = match (&cfg.controller, controlled) {
         (Some(c), Some(r)) => {
             let rod = system.rod(r);
@@ -377,7 +382,10 @@ fn summary_json(
             } = e;
             // The element at or next to the failure: node i → element max(i, 1) − 1 (the one
             // ending there), Voronoi point k → element k + 1 (the one starting there).
-            let r = rod.as_deref().and_then(|n| system.rod_index(n)).unwrap_or(0);
+            let r = rod
+                .as_deref()
+                .and_then(|n| system.rod_index(n))
+                .unwrap_or(0);
             let n = system.rod(r).n_elements();
             let element = match *domain {
                 "node" => index.max(&1) - 1,

@@ -332,7 +332,11 @@ impl Recorder for TrajectoryRecorder {
             self.shapes.push(self.last.clone());
         }
         if let Some(f) = self.last_control.take() {
-            if self.control_frames.last().map_or(true, |l| l.time != f.time) {
+            if self
+                .control_frames
+                .last()
+                .map_or(true, |l| l.time != f.time)
+            {
                 self.control_frames.push(f);
             }
         }
@@ -351,7 +355,12 @@ impl Recorder for TrajectoryRecorder {
             for (c, (name, _, _)) in SERIES.iter().enumerate() {
                 column.clear();
                 column.extend(self.series[r].iter().map(|row| row[c]));
-                write_member(&mut npz, &array_key(self.multi, &rod.name, name), &[t], &column)?;
+                write_member(
+                    &mut npz,
+                    &array_key(self.multi, &rod.name, name),
+                    &[t],
+                    &column,
+                )?;
             }
             if self.controlled == Some(r) {
                 write_member(

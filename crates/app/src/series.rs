@@ -192,8 +192,10 @@ impl Recorder for SeriesRecorder {
         let rod = m.system.rod(self.rod);
         let model = &rod.model;
         let at = rod.offsets();
-        let (Some(f), Some(c)) = (m.workspace.actuation_force(), m.workspace.actuation_couple())
-        else {
+        let (Some(f), Some(c)) = (
+            m.workspace.actuation_force(),
+            m.workspace.actuation_couple(),
+        ) else {
             if let Some(last) = self.samples.last_mut() {
                 last.control_force_effort = 0.0;
                 last.control_couple_effort = 0.0;
@@ -234,7 +236,13 @@ impl Recorder for SeriesRecorder {
             last.control_power = prev.control_power;
         }
         let report = run.control.clone().unwrap_or_default();
-        let summary = derive(&self.samples, &self.targets, self.grasp, run.duration, report);
+        let summary = derive(
+            &self.samples,
+            &self.targets,
+            self.grasp,
+            run.duration,
+            report,
+        );
         write_series(&out.path("series.npz"), &self.samples, &self.spheres)?;
         write_distance_csv(&out.path("distance.csv"), &self.samples)?;
         self.checks = acceptance::evaluate(
@@ -289,10 +297,22 @@ impl Recorder for SeriesRecorder {
         );
         map.insert(
             "series_arrays".into(),
-            json!(["time", "tip", "target", "distance", "hamiltonian", "kinetic",
-                "shaped_potential", "contact_energy", "control_force_effort",
-                "control_couple_effort", "control_power", "penetration", "design_epoch",
-                "obstacles"]),
+            json!([
+                "time",
+                "tip",
+                "target",
+                "distance",
+                "hamiltonian",
+                "kinetic",
+                "shaped_potential",
+                "contact_energy",
+                "control_force_effort",
+                "control_couple_effort",
+                "control_power",
+                "penetration",
+                "design_epoch",
+                "obstacles"
+            ]),
         );
         self.summary = Some(summary);
         Ok(map)
@@ -381,7 +401,8 @@ fn write_series(path: &std::path::Path, series: &[Sample], spheres: &[Sphere]) -
     let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
     let mut npz = zip::ZipWriter::new(BufWriter::new(file));
     let column = |f: &dyn Fn(&Sample) -> f64| -> Vec<f64> { series.iter().map(f).collect() };
-    let flat3 = |f: &dyn Fn(&Sample) -> [f64; 3]| -> Vec<f64> { series.iter().flat_map(f).collect() };
+    let flat3 =
+        |f: &dyn Fn(&Sample) -> [f64; 3]| -> Vec<f64> { series.iter().flat_map(f).collect() };
     write_member(&mut npz, "time", &[t], &column(&|s| s.time))?;
     write_member(&mut npz, "tip", &[t, 3], &flat3(&|s| s.tip))?;
     write_member(&mut npz, "target", &[t, 3], &flat3(&|s| s.target))?;

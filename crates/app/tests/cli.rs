@@ -78,9 +78,14 @@ fn read_trajectory(dir: &Path) -> Trajectory {
 fn read_rod(dir: &Path, prefix: &str) -> Trajectory {
     let mut npz = NpzReader::new(File::open(dir.join("trajectory.npz")).unwrap()).unwrap();
     let names = npz.names().unwrap();
-    for required in ["position", "velocity", "director", "omega", "sigma", "kappa"] {
+    for required in [
+        "position", "velocity", "director", "omega", "sigma", "kappa",
+    ] {
         let key = format!("{prefix}{required}");
-        assert!(names.iter().any(|n| *n == key), "{key} missing from {names:?}");
+        assert!(
+            names.iter().any(|n| *n == key),
+            "{key} missing from {names:?}"
+        );
     }
     let key = |f: &str| format!("{prefix}{f}");
     let omega: Array3<f64> = npz.by_name(&key("omega")).unwrap();
@@ -623,10 +628,7 @@ fn npz_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
 
 fn run_ok(dir: &Path, name: &str, text: &str) -> PathBuf {
     write(dir, &format!("{name}.toml"), text);
-    let o = octoarm(
-        &["run", "-q", &format!("{name}.toml"), "--out", name],
-        dir,
-    );
+    let o = octoarm(&["run", "-q", &format!("{name}.toml"), "--out", name], dir);
     assert!(o.status.success(), "{name}: {}", stderr(&o));
     dir.join(name)
 }
@@ -659,11 +661,17 @@ fn loads_placed_by_arc_length_and_by_index_are_the_same_load() {
 #[test]
 fn rest_curvature_as_a_function_of_arc_length_equals_the_uniform_value() {
     let tmp = tempfile::tempdir().unwrap();
-    let base = TINY.replace("[[load]]\nkind = \"tip_force\"\nvalue = [0.0, 1.0e-4, 0.0]\n", "");
+    let base = TINY.replace(
+        "[[load]]\nkind = \"tip_force\"\nvalue = [0.0, 1.0e-4, 0.0]\n",
+        "",
+    );
     let uniform = run_ok(
         tmp.path(),
         "uniform",
-        &base.replace("shear_modulus = 1.0e3", "shear_modulus = 1.0e3\nrest_curvature = [0.0, 5.0, 0.0]"),
+        &base.replace(
+            "shear_modulus = 1.0e3",
+            "shear_modulus = 1.0e3\nrest_curvature = [0.0, 5.0, 0.0]",
+        ),
     );
     let function = run_ok(
         tmp.path(),
@@ -701,8 +709,16 @@ fn joints_and_rods_are_referenced_by_name_with_errors_naming_the_choices() {
     let tmp = tempfile::tempdir().unwrap();
     let out = run_ok(tmp.path(), "joined", &text);
     let names: Vec<String> = npz_bytes(&out).into_iter().map(|(n, _)| n).collect();
-    for key in ["time.npy", "a/position.npy", "b/omega.npy", "b/energy_bend.npy"] {
-        assert!(names.iter().any(|n| n == key), "{key} missing from {names:?}");
+    for key in [
+        "time.npy",
+        "a/position.npy",
+        "b/omega.npy",
+        "b/energy_bend.npy",
+    ] {
+        assert!(
+            names.iter().any(|n| n == key),
+            "{key} missing from {names:?}"
+        );
     }
     rejects(
         "joint end",
@@ -754,7 +770,10 @@ fn a_controlled_run_accepts_loads_per_length_damping_numerics_and_moving_obstacl
 fn pyelastica_damping_protocol_has_one_rate() {
     rejects(
         "protocol",
-        &TINY.replace("rate = 10.0", "rate = 10.0\ngamma = 0.01\nprotocol = \"pyelastica\""),
+        &TINY.replace(
+            "rate = 10.0",
+            "rate = 10.0\ngamma = 0.01\nprotocol = \"pyelastica\"",
+        ),
         &[],
         &["damping.gamma = 0.01 is outside the allowed range of 0 with protocol = \"pyelastica\""],
     );
@@ -784,7 +803,9 @@ fn initial_state_errors_name_the_file_and_the_mismatch() {
     let o = octoarm(&["run", "b.toml", "--out", "b"], dir.path());
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("`position` has frames of shape [11, 3]; rod \"rod\" with 20 elements needs [21, 3]"),
+        stderr(&o).contains(
+            "`position` has frames of shape [11, 3]; rod \"rod\" with 20 elements needs [21, 3]"
+        ),
         "{}",
         stderr(&o)
     );

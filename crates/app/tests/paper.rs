@@ -150,7 +150,10 @@ fn paper_command_writes_every_output_and_matches_run() {
         // about later times are undecided (null).
         let checks = summary["acceptance"].as_array().unwrap();
         assert!(checks.len() >= 2, "{name}: {checks:?}");
-        assert!(checks.iter().any(|c| c["pass"].is_null()), "{name}: {checks:?}");
+        assert!(
+            checks.iter().any(|c| c["pass"].is_null()),
+            "{name}: {checks:?}"
+        );
     }
 
     let report = std::fs::read_to_string(root.join("report.md")).unwrap();

@@ -153,7 +153,8 @@ fn a_run_continued_from_a_frame_equals_the_uninterrupted_run_to_the_last_bit() {
             .filter(|(a, b)| a.to_bits() != b.to_bits())
             .count();
         assert_eq!(
-            differing, 0,
+            differing,
+            0,
             "{name}: {differing} of {} values differ from the uninterrupted run",
             expected.len()
         );

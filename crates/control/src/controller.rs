@@ -466,9 +466,7 @@ impl ShapingController {
                     };
                     report.sweeps += sol.report.sweeps;
                     report.design_tip_errors.push(sol.report.tip_error);
-                    report
-                        .design_penetrations
-                        .push(sol.report.max_penetration);
+                    report.design_penetrations.push(sol.report.max_penetration);
                     offline.push((b, sol.strains));
                 }
             }
@@ -486,9 +484,7 @@ impl ShapingController {
                     report.sweeps += sol.report.sweeps;
                     if presolve {
                         report.design_tip_errors.push(sol.report.tip_error);
-                        report
-                            .design_penetrations
-                            .push(sol.report.max_penetration);
+                        report.design_penetrations.push(sol.report.max_penetration);
                     }
                     Some(sol.strains)
                 } else {

@@ -30,11 +30,11 @@ pub mod statics;
 pub mod strains;
 pub mod task;
 
-pub use error::{ShapingError, SolveError, StaticsError, TaskError};
 pub use controller::{
     ControlError, ControlReport, Controller, DesignMode, GraspSpec, ShapingController,
     ShapingControllerConfig, Signals, SphereSpec, TargetPhase, TaskSchedule,
 };
+pub use error::{ShapingError, SolveError, StaticsError, TaskError};
 pub use shaping::{EnergyShapingController, ShapingConfig};
 pub use solver::{
     OfflineSolver, OnlineConfig, OnlineReport, OnlineSolver, Outcome, Solution, SolveReport,

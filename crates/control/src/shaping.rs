@@ -8,8 +8,8 @@
 use crate::error::ShapingError;
 use crate::strains::StrainField;
 use octoarm_physics::{
-    energies_with_rest, Actuation, Energies, RodAccess, RodModel, RodSystem, Simulation,
-    StepError, Vec3,
+    energies_with_rest, Actuation, Energies, RodAccess, RodModel, RodSystem, Simulation, StepError,
+    Vec3,
 };
 
 /// Settings of the law.

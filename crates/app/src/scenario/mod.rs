@@ -377,8 +377,11 @@ mod tests {
         .unwrap_err();
         assert!(e.message.contains("rod.rest_kappa"), "{e}");
         assert!(e.message.contains("exactly 9 vectors"), "{e}");
-        let e = load(&MINIMAL.replace("shear_modulus = 1e3", "shear_modulus = 1e3\nbase = \"clampd\""))
-            .unwrap_err();
+        let e = load(&MINIMAL.replace(
+            "shear_modulus = 1e3",
+            "shear_modulus = 1e3\nbase = \"clampd\"",
+        ))
+        .unwrap_err();
         assert!(e.message.contains("rod.base"), "{e}");
         assert!(e.message.contains("clamped"), "{e}");
     }

@@ -112,14 +112,19 @@ pub(crate) fn explain_toml_error(source: &str, e: &toml::de::Error) -> String {
         .and_then(|s| key_at(source, s.start))
         .map(|k| format!("{k}: "))
         .unwrap_or_default();
-    if let Some(rest) = msg.split("did not match any variant of untagged enum ").nth(1) {
+    if let Some(rest) = msg
+        .split("did not match any variant of untagged enum ")
+        .nth(1)
+    {
         let name = rest.split_whitespace().next().unwrap_or("");
         let found = found_at.trim();
         let what = match name {
-            "Profile" => "expected a 3-vector [x, y, z], an array of 3-vectors (one per element for \
+            "Profile" => {
+                "expected a 3-vector [x, y, z], an array of 3-vectors (one per element for \
                           rest_sigma, one per interior node for rest_kappa) or a table \
                           { s = [...], value = [[x, y, z], ...] }"
-                .to_string(),
+                    .to_string()
+            }
             "EndConfig" => {
                 let kinds: Vec<String> = ["free", "pinned", "clamped", "driven"]
                     .map(String::from)
@@ -246,4 +251,3 @@ fn leaf_or_inner(v: &toml_edit::Item, at: usize, path: &mut Vec<String>) -> bool
 fn contains(span: Option<Range<usize>>, at: usize) -> bool {
     span.is_some_and(|s| s.start <= at && at < s.end.max(s.start + 1))
 }
-

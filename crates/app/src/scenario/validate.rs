@@ -229,7 +229,10 @@ impl ScenarioConfig {
         }
         if let Some(init) = &self.initial_state {
             if init.file.is_empty() {
-                return Err(rule("initial_state.file", "must name a trajectory.npz file"));
+                return Err(rule(
+                    "initial_state.file",
+                    "must name a trajectory.npz file",
+                ));
             }
             if init.frame.is_some() && init.time.is_some() {
                 return Err(rule(
@@ -274,7 +277,10 @@ impl ScenarioConfig {
         count(&k("n_elements"), r.n_elements, 2, MAX_ELEMENTS)?;
         positive(&k("length"), r.length)?;
         positive(&k("base_diameter"), r.base_diameter)?;
-        positive(&k("tip_diameter"), r.tip_diameter.unwrap_or(r.base_diameter))?;
+        positive(
+            &k("tip_diameter"),
+            r.tip_diameter.unwrap_or(r.base_diameter),
+        )?;
         positive(&k("density"), r.density)?;
         positive(&k("youngs_modulus"), r.youngs_modulus)?;
         positive(&k("shear_modulus"), r.shear_modulus)?;
@@ -835,7 +841,12 @@ fn validate_acceptance(i: usize, a: &AcceptanceConfig) -> Result<(), Invalid> {
         (false, _, _) => return Err(rule(&k("from"), "is not a key of this quantity")),
     }
     match (a.quantity == Q::SettlingTime, a.segment) {
-        (true, None) => return Err(rule(&k("segment"), "missing: settling_time needs a segment")),
+        (true, None) => {
+            return Err(rule(
+                &k("segment"),
+                "missing: settling_time needs a segment",
+            ))
+        }
         (false, Some(_)) => return Err(rule(&k("segment"), "is not a key of this quantity")),
         _ => {}
     }
