@@ -82,10 +82,7 @@ fn read_rod(dir: &Path, prefix: &str) -> Trajectory {
         "position", "velocity", "director", "omega", "sigma", "kappa",
     ] {
         let key = format!("{prefix}{required}");
-        assert!(
-            names.iter().any(|n| *n == key),
-            "{key} missing from {names:?}"
-        );
+        assert!(names.contains(&key), "{key} missing from {names:?}");
     }
     let key = |f: &str| format!("{prefix}{f}");
     let omega: Array3<f64> = npz.by_name(&key("omega")).unwrap();

@@ -278,7 +278,11 @@ impl ActuationScratch {
         out.force.add(n0, f[0]);
         self.force.set(n0, f[0]);
         for i in 1..=n {
-            let d = [f[i][0] - f[i - 1][0], f[i][1] - f[i - 1][1], f[i][2] - f[i - 1][2]];
+            let d = [
+                f[i][0] - f[i - 1][0],
+                f[i][1] - f[i - 1][1],
+                f[i][2] - f[i - 1][2],
+            ];
             out.force.add(n0 + i, d);
             self.force.set(n0 + i, d);
         }

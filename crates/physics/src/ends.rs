@@ -103,7 +103,10 @@ impl Motion {
         Self {
             times: vec![0.0, until],
             displacement: vec![[0.0; 3]; 2],
-            rotation: vec![[0.0; 3], [rate[0] * until, rate[1] * until, rate[2] * until]],
+            rotation: vec![
+                [0.0; 3],
+                [rate[0] * until, rate[1] * until, rate[2] * until],
+            ],
         }
     }
 

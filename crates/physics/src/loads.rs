@@ -208,7 +208,9 @@ impl Load {
                     );
                 }
             }
-            Load::FollowerCouple { couple_per_length: c } => {
+            Load::FollowerCouple {
+                couple_per_length: c,
+            } => {
                 for j in 0..n {
                     let l = model.rest_length[j];
                     out.couple.add(

@@ -119,11 +119,7 @@ impl Simulation {
     }
 
     /// Add a load on the first rod scaled by a schedule.
-    pub fn add_scheduled_load(
-        &mut self,
-        load: Load,
-        schedule: Schedule,
-    ) -> Result<(), ModelError> {
+    pub fn add_scheduled_load(&mut self, load: Load, schedule: Schedule) -> Result<(), ModelError> {
         self.system.add_load(0, load, schedule)
     }
 
@@ -176,7 +172,11 @@ impl Simulation {
     /// Base reaction force (lab) of the first rod at the last force evaluation: −F_int of node
     /// 0 [N].
     pub fn base_reaction_force(&self) -> Vec3 {
-        let f = self.workspace.internal.force.get(self.system.rod(0).offsets().node);
+        let f = self
+            .workspace
+            .internal
+            .force
+            .get(self.system.rod(0).offsets().node);
         [-f[0], -f[1], -f[2]]
     }
 

@@ -113,7 +113,11 @@ impl SystemState {
         let w = &self.omega;
         RodView {
             n,
-            position: [&p.x[nodes.clone()], &p.y[nodes.clone()], &p.z[nodes.clone()]],
+            position: [
+                &p.x[nodes.clone()],
+                &p.y[nodes.clone()],
+                &p.z[nodes.clone()],
+            ],
             velocity: [&v.x[nodes.clone()], &v.y[nodes.clone()], &v.z[nodes]],
             director: std::array::from_fn(|k| &self.director.m[k][elems.clone()]),
             omega: [&w.x[elems.clone()], &w.y[elems.clone()], &w.z[elems]],
@@ -176,11 +180,19 @@ impl RodAccess for RodView<'_> {
     }
     #[inline(always)]
     fn position(&self, i: usize) -> Vec3 {
-        [self.position[0][i], self.position[1][i], self.position[2][i]]
+        [
+            self.position[0][i],
+            self.position[1][i],
+            self.position[2][i],
+        ]
     }
     #[inline(always)]
     fn velocity(&self, i: usize) -> Vec3 {
-        [self.velocity[0][i], self.velocity[1][i], self.velocity[2][i]]
+        [
+            self.velocity[0][i],
+            self.velocity[1][i],
+            self.velocity[2][i],
+        ]
     }
     #[inline(always)]
     fn director(&self, j: usize) -> Mat3 {

@@ -12,8 +12,8 @@ use crate::error::StepError;
 use crate::internal::{turning_angle, InternalLoads};
 use crate::loads::ExternalLoads;
 use crate::math::{
-    bjorck, dot, exp_neg_skew, exp_neg_skew_series, mat_mul, mat_vec, orthonormality_defect,
-    Vec3, EXP_SERIES_MAX_SQ,
+    bjorck, dot, exp_neg_skew, exp_neg_skew_series, mat_mul, mat_vec, orthonormality_defect, Vec3,
+    EXP_SERIES_MAX_SQ,
 };
 use crate::state::{RodAccess, SystemState};
 use crate::system::RodSystem;
@@ -91,14 +91,8 @@ impl Workspace {
     fn refresh_kick(&mut self, system: &RodSystem) {
         let dt = system.settings.dt;
         for (r, rod) in system.rods.iter().enumerate() {
-            self.kick.refresh_rod(
-                r,
-                &rod.model,
-                &rod.damping,
-                dt,
-                rod.at.node,
-                rod.at.element,
-            );
+            self.kick
+                .refresh_rod(r, &rod.model, &rod.damping, dt, rod.at.node, rod.at.element);
         }
     }
 
@@ -152,14 +146,7 @@ fn total_energy(
         .enumerate()
         .map(|(r, rod)| {
             let v = system.view(state, r);
-            energies_with_rest(
-                &rod.model,
-                &v,
-                &rs[rod.elements()],
-                rs_k(rk, rod),
-                ec,
-            )
-            .total()
+            energies_with_rest(&rod.model, &v, &rs[rod.elements()], rs_k(rk, rod), ec).total()
         })
         .sum()
 }
@@ -218,13 +205,7 @@ pub fn rod_energies(system: &RodSystem, state: &SystemState, r: usize) -> Energi
         let mut s = system.rest_sigma.clone();
         let mut k = system.rest_kappa.clone();
         system.rest_at(state.time, &mut s, &mut k);
-        energies_with_rest(
-            &rod.model,
-            &v,
-            &s[rod.elements()],
-            &k[rod.interior()],
-            ec,
-        )
+        energies_with_rest(&rod.model, &v, &s[rod.elements()], &k[rod.interior()], ec)
     }
 }
 
@@ -276,8 +257,14 @@ pub fn step(
         let rod = &system.rods[l.rod];
         let v = state.view(rod.at.node, rod.at.element, rod.n_elements());
         let k = l.schedule.factor(t);
-        l.load
-            .apply(&rod.model, &v, k, rod.at.node, rod.at.element, &mut ws.external);
+        l.load.apply(
+            &rod.model,
+            &v,
+            k,
+            rod.at.node,
+            rod.at.element,
+            &mut ws.external,
+        );
     }
     if !system.obstacles.is_empty() {
         for rod in &system.rods {
@@ -347,7 +334,7 @@ pub fn step(
 
     // 5–6. Kick with exact damping, rate constraints, then the multiplicative damper.
     kick(system, state, ws, dt);
-    hold_rates(system, state);
+    hold_rates(system, state, &ws.internal, dt);
     apply_analytical_dampers(system, state, ws, dt);
 
     // 7. Second kinematic half-step and value constraints.
@@ -427,10 +414,13 @@ fn hold_values(system: &RodSystem, state: &mut SystemState) {
 }
 
 /// Give every held end node and frame the velocity and angular velocity of its end condition.
-fn hold_rates(system: &RodSystem, state: &mut SystemState) {
+/// A driven end does work on the rod: −F_int · v − T_int · ω at its node and element (the
+/// internal loads of this step; the clamp absorbs any external load on held DOFs), added to the
+/// rod's external work so that the energy balance and the guard's bound include it.
+fn hold_rates(system: &RodSystem, state: &mut SystemState, internal: &InternalLoads, dt: f64) {
     // Rates belong to the mid-step (the kick integrates from t to t + dt).
     let t = state.time;
-    for rod in &system.rods {
+    for (r, rod) in system.rods.iter().enumerate() {
         let n = rod.n_elements();
         for (end, side) in [
             (&rod.base, crate::ends::Side::Base),
@@ -440,11 +430,16 @@ fn hold_rates(system: &RodSystem, state: &mut SystemState) {
                 continue;
             }
             let e = rod.at.element + side.element(n);
+            let node = rod.at.node + side.node(n);
             let q = state.director.get(e);
             let (v, w) = end.rates(t, &q);
-            state.velocity.set(rod.at.node + side.node(n), v);
+            state.velocity.set(node, v);
             if end.condition.holds_frame() {
                 state.omega.set(e, w);
+            }
+            if matches!(end.condition, crate::ends::EndCondition::Driven(_)) {
+                let power = -dot(internal.force.get(node), v) - dot(internal.torque.get(e), w);
+                state.work[r] += dt * power;
             }
         }
     }
@@ -530,12 +525,7 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
     }
 }
 
-fn apply_analytical_dampers(
-    system: &RodSystem,
-    state: &mut SystemState,
-    ws: &Workspace,
-    dt: f64,
-) {
+fn apply_analytical_dampers(system: &RodSystem, state: &mut SystemState, ws: &Workspace, dt: f64) {
     for (r, rod) in system.rods.iter().enumerate() {
         let Some(damper) = rod.damping.analytical else {
             continue;
@@ -700,7 +690,8 @@ pub fn check(system: &RodSystem, state: &SystemState, ws: &mut Workspace) -> Res
         }
     }
     // Strains, against the rest strains in force.
-    let (rs_all, rk_all) = rest_in_force(system, state.time, &mut ws.rest_sigma, &mut ws.rest_kappa);
+    let (rs_all, rk_all) =
+        rest_in_force(system, state.time, &mut ws.rest_sigma, &mut ws.rest_kappa);
     let dt = system.settings.dt;
     for (r, rod) in system.rods.iter().enumerate() {
         let n = rod.n_elements();
@@ -814,8 +805,7 @@ pub fn check(system: &RodSystem, state: &SystemState, ws: &mut Workspace) -> Res
     let work: f64 = state.work.iter().sum();
     let window_max = ws.guard.window.iter().copied().fold(0.0, f64::max);
     let bound = 100.0
-        * ws
-            .guard
+        * ws.guard
             .reference_energy
             .max(window_max)
             .max(ws.guard.floor)

@@ -312,16 +312,22 @@ impl RodSystem {
     /// Rod `rod`'s rest strains in force (σ°, κ°), without scheduled changes.
     pub fn rest_strains(&self, rod: usize) -> (&[Vec3], &[Vec3]) {
         let r = &self.rods[rod];
-        (&self.rest_sigma[r.elements()], &self.rest_kappa[r.interior()])
+        (
+            &self.rest_sigma[r.elements()],
+            &self.rest_kappa[r.interior()],
+        )
     }
 
     /// Add a scheduled rest-strain change (see `RestChange`).
     pub fn add_rest_change(&mut self, change: RestChange) -> Result<(), ModelError> {
-        let r = self.rods.get(change.rod).ok_or(ModelError::CountOutOfRange {
-            field: "rest_change.rod",
-            value: change.rod,
-            range: "[0, number of rods - 1]",
-        })?;
+        let r = self
+            .rods
+            .get(change.rod)
+            .ok_or(ModelError::CountOutOfRange {
+                field: "rest_change.rod",
+                value: change.rod,
+                range: "[0, number of rods - 1]",
+            })?;
         let n = r.n_elements();
         if !change.sigma.is_empty() && change.sigma.len() != n {
             return Err(ModelError::BadLength {
@@ -590,7 +596,12 @@ impl SystemBuilder {
                     motion.validate()?;
                 }
             }
-            let pose = |side: Side| (spec.state.position[side.node(n)], spec.state.director[side.element(n)]);
+            let pose = |side: Side| {
+                (
+                    spec.state.position[side.node(n)],
+                    spec.state.director[side.element(n)],
+                )
+            };
             let (bx, bq) = pose(Side::Base);
             let (tx, tq) = pose(Side::Tip);
             rods.push(Rod {
@@ -631,7 +642,9 @@ impl SystemBuilder {
             j.params.validate()?;
             let frame = |e: crate::joints::JointEnd| -> Mat3 {
                 let r = &rods[e.rod];
-                state.director.get(r.at.element + e.side.element(r.n_elements()))
+                state
+                    .director
+                    .get(r.at.element + e.side.element(r.n_elements()))
             };
             let (q1, q2) = (frame(j.first), frame(j.second));
             j.set_rest(&q1, &q2)?;
@@ -653,4 +666,3 @@ impl SystemBuilder {
         Ok((system, state))
     }
 }
-

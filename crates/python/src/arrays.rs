@@ -4,10 +4,15 @@
 //! exact shape (never reshapes) and finite entries, and names the argument in its errors.
 
 use numpy::ndarray::{Array1, Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyUntypedArrayMethods};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods,
+};
 use octoarm_physics::{Mat3, Vec3};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+
+/// Two (len, 3) arrays, e.g. strains σ and κ.
+pub type ArrayPair<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
 /// (len, 3) float64 copy of a list of vectors.
 pub fn vec3s<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>> {

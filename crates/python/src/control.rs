@@ -1,14 +1,15 @@
 //! The controller from Python: the offline strain-space solver (statics for a reach task with
 //! optional obstacles, or a tip force), its design (target strains and shape), and the
-//! energy-shaping loop that drives a `Simulation` to that design.
+//! energy-shaping law that drives one rod of a `Simulation` to that design by writing the
+//! simulation's actuation (constant internal stresses δn, δτ) between steps.
 
-use crate::arrays::{mat3s, vec3s};
+use crate::arrays::{mat3s, vec3s, ArrayPair};
 use crate::rod::Simulation;
-use crate::step_error;
+use crate::{model_error, step_error};
 use numpy::{PyArray2, PyArray3};
 use octoarm_control as ctl;
 use octoarm_control::{ShapingConfig, SolverConfig, StrainField, StrainSpace, Task};
-use octoarm_physics::Vec3;
+use octoarm_physics::{RodModel, Vec3};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
@@ -21,6 +22,16 @@ fn solve_error(e: ctl::SolveError) -> PyErr {
 
 fn shaping_error(e: ctl::ShapingError) -> PyErr {
     PyValueError::new_err(e.to_string())
+}
+
+/// Rod `r`'s model with the rest strains in force as its natural ones (what the solver designs
+/// from, as the law's intrinsic strains are).
+fn model_in_force(sim: &Simulation, r: usize) -> PyResult<RodModel> {
+    let system = &sim.inner.system;
+    let mut model = (*system.rod(r).model).clone();
+    let (sigma, kappa) = system.rest_strains(r);
+    model.set_rest_strains(sigma, kappa).map_err(model_error)?;
+    Ok(model)
 }
 
 /// A designed strain field w̄ = (ν̄, κ̄), its shape and the solver's report.
@@ -98,8 +109,10 @@ impl Design {
     }
 }
 
-/// The offline strain-space solver (forward–backward sweep, L-BFGS by default) for the arm of a
-/// `Simulation` (its model and clamped base). `space` is "planar" (default) or "full".
+/// The offline strain-space solver (forward–backward sweep, L-BFGS by default) for one rod of a
+/// `Simulation` (`rod=` its name; default the only rod): its model with the rest strains in force
+/// as intrinsic strains, and its base pose as the clamped base. `space` is "planar" (default) or
+/// "full".
 #[pyclass(module = "octoarm")]
 pub struct OfflineSolver {
     inner: ctl::OfflineSolver,
@@ -108,13 +121,16 @@ pub struct OfflineSolver {
 #[pymethods]
 impl OfflineSolver {
     #[new]
-    #[pyo3(signature = (sim, space = "planar", floor_diameter = 4.0e-3, max_sweeps = 20_000))]
+    #[pyo3(signature = (sim, space = "planar", floor_diameter = 4.0e-3, max_sweeps = 20_000,
+        rod = None))]
     fn new(
         sim: &Simulation,
         space: &str,
         floor_diameter: f64,
         max_sweeps: usize,
+        rod: Option<&str>,
     ) -> PyResult<Self> {
+        let r = sim.rod_index(rod)?;
         let space = match space {
             "planar" => StrainSpace::Planar,
             "full" => StrainSpace::Full,
@@ -130,8 +146,9 @@ impl OfflineSolver {
             max_sweeps,
             ..SolverConfig::default()
         };
-        let inner = ctl::OfflineSolver::new(&sim.inner.model, &sim.inner.state, config)
-            .map_err(solve_error)?;
+        let model = model_in_force(sim, r)?;
+        let state = sim.inner.system.rod_state(&sim.inner.state, r);
+        let inner = ctl::OfflineSolver::new(&model, &state, config).map_err(solve_error)?;
         Ok(Self { inner })
     }
 
@@ -183,39 +200,66 @@ impl OfflineSolver {
     }
 }
 
-/// The energy-shaping law: makes a design the arm's shaped rest strains and adds the control
-/// to every step of a `Simulation`; its damping rate ν_d [1/s] (default 10) is set on the
-/// simulation's mass-proportional damping when the controller is created.
+/// The energy-shaping law on one rod of a `Simulation` (`rod=` its name; default the only rod):
+/// makes a design the rod's shaped rest strains, writing the constant stresses δn = S(σ° − σ̄),
+/// δτ = B(κ° − κ̄) into the simulation's actuation, which every step then applies. Creating it
+/// sets the rod's mass-proportional damping rate to `damping_rate` ν_d [1/s] (default 10) and
+/// writes the (zero) control of the intrinsic design.
 #[pyclass(module = "octoarm")]
 pub struct EnergyShapingController {
     inner: ctl::EnergyShapingController,
 }
 
+impl EnergyShapingController {
+    /// The model of the controller's rod in `sim`; errors if `sim` has no such rod of the same
+    /// size (another simulation than the one it was made for).
+    fn model<'s>(&self, sim: &'s Simulation) -> PyResult<&'s RodModel> {
+        let r = self.inner.rod();
+        let rods = sim.inner.system.rods();
+        match rods.get(r) {
+            Some(rod) if rod.n_elements() == self.inner.design().n_elements() => Ok(&rod.model),
+            _ => Err(PyValueError::new_err(
+                "sim is not the simulation this controller was made for (it has no rod like \
+                 the controller's)",
+            )),
+        }
+    }
+}
+
 #[pymethods]
 impl EnergyShapingController {
     #[new]
-    #[pyo3(signature = (sim, damping_rate = 10.0))]
-    fn new(mut sim: PyRefMut<'_, Simulation>, damping_rate: f64) -> PyResult<Self> {
-        let config = ShapingConfig {
-            damping_rate,
-            ..ShapingConfig::default()
-        };
-        let mut inner =
-            ctl::EnergyShapingController::new(&sim.inner.model, config).map_err(shaping_error)?;
-        inner.attach(&mut sim.inner).map_err(shaping_error)?;
+    #[pyo3(signature = (sim, damping_rate = 10.0, rod = None))]
+    fn new(
+        mut sim: PyRefMut<'_, Simulation>,
+        damping_rate: f64,
+        rod: Option<&str>,
+    ) -> PyResult<Self> {
+        let r = sim.rod_index(rod)?;
+        let config = ShapingConfig { damping_rate };
+        let mut inner = ctl::EnergyShapingController::for_rod(&sim.inner.system, r, config)
+            .map_err(shaping_error)?;
+        let s = &mut sim.inner;
+        let mut d = s.system.rod(r).damping;
+        d.rate = damping_rate;
+        s.system.set_damping(r, d).map_err(model_error)?;
+        inner.actuate(&s.system, &mut s.actuation);
         Ok(Self { inner })
     }
 
-    /// Put `design` in force (refuses degenerate designs with `ValueError`).
+    /// Put `design` in force (refuses degenerate designs with `ValueError`); the simulation's
+    /// actuation is rewritten at the next `step`.
     fn set_design(&mut self, sim: &Simulation, design: &Design) -> PyResult<()> {
+        let model = self.model(sim)?;
         self.inner
-            .set_design(&sim.inner.model, &design.strains)
+            .set_design(model, &design.strains)
             .map_err(shaping_error)
     }
 
     /// Advance `sim` by `n` steps under the law (GIL released), then run the stability guard.
     #[pyo3(signature = (sim, n = 1))]
     fn step(&mut self, py: Python<'_>, mut sim: PyRefMut<'_, Simulation>, n: u64) -> PyResult<()> {
+        self.model(&sim)?;
         let ctrl = &mut self.inner;
         let s = &mut sim.inner;
         py.detach(|| {
@@ -225,9 +269,18 @@ impl EnergyShapingController {
         .map_err(|e| step_error(py, e))
     }
 
-    /// Shaped Hamiltonian [J]: kinetic energy + strain energy measured from the design.
-    fn shaped_hamiltonian(&self, sim: &Simulation) -> f64 {
-        self.inner
-            .shaped_hamiltonian(&sim.inner.model, &sim.inner.state)
+    /// Shaped Hamiltonian [J] of the rod: kinetic energy + strain energy measured from the
+    /// design.
+    fn shaped_hamiltonian(&self, sim: &Simulation) -> PyResult<f64> {
+        let model = self.model(sim)?;
+        let view = sim.inner.system.view(&sim.inner.state, self.inner.rod());
+        Ok(self.inner.shaped_hamiltonian(model, &view))
+    }
+
+    /// The constant stresses of the design in force: (δn [N] per element (n, 3), δτ [N m] per
+    /// interior point (n − 1, 3)), material frame.
+    fn stresses<'py>(&self, py: Python<'py>) -> ArrayPair<'py> {
+        let (n, t) = self.inner.stresses();
+        (vec3s(py, n), vec3s(py, t))
     }
 }

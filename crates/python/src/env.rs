@@ -57,12 +57,12 @@ impl Arm {
         for (dst, &a) in self.action.iter_mut().zip(action) {
             *dst = if a.is_nan() { 0.0 } else { a.clamp(-1.0, 1.0) };
         }
-        let n_interior = self.sim.model.rest_kappa.len();
+        let n_interior = self.sim.system.rest_kappa.len();
         // Muscle-like activation: the rest curvature follows the command with a first-order lag
         // of time constant `activation_time`, updated every time step (a step change of rest
         // curvature would shock the thin arm into the non-variational zig-zag mode).
         let alpha = if cfg.activation_time > 0.0 {
-            1.0 - (-self.sim.settings.dt / cfg.activation_time).exp()
+            1.0 - (-self.sim.settings().dt / cfg.activation_time).exp()
         } else {
             1.0
         };
@@ -73,7 +73,8 @@ impl Arm {
                 let goal = a * cfg.max_curvature;
                 *c += alpha * (goal - *c);
             }
-            for (k, kappa) in self.sim.model.rest_kappa.iter_mut().enumerate() {
+            // The rest curvatures in force live in the system (one rod: same indexing).
+            for (k, kappa) in self.sim.system.rest_kappa.iter_mut().enumerate() {
                 kappa[1] = self.curvature[k * cfg.n_segments / n_interior];
             }
             self.sim.step()?;
@@ -82,7 +83,7 @@ impl Arm {
     }
 
     fn tip_distance(&self) -> f64 {
-        let tip = self.sim.state.tip();
+        let tip = self.sim.tip();
         ((tip[0] - self.target[0]).powi(2) + (tip[1] - self.target[1]).powi(2)).sqrt()
     }
 
@@ -96,18 +97,19 @@ impl Arm {
     /// x, y / L0; lagged rest curvature / max_curvature per segment; last action. Each
     /// component is clipped to its bound (in f64, so the f32 value is inside the bound too).
     fn observe(&self, cfg: &Config, out: &mut [f32]) {
+        // One rod: the system's nodes are the arm's, in order (structure of arrays).
         let s = &self.sim.state;
         let pos = |x: f64| (x / ARM_LENGTH).clamp(-POSITION_BOUND, POSITION_BOUND) as f32;
         let vel = |v: f64| (v / VELOCITY_SCALE).clamp(-VELOCITY_BOUND, VELOCITY_BOUND) as f32;
         let mut o = 0;
-        for p in &s.position {
-            out[o] = pos(p[0]);
-            out[o + 1] = pos(p[1]);
+        for (x, y) in s.position.x.iter().zip(&s.position.y) {
+            out[o] = pos(*x);
+            out[o + 1] = pos(*y);
             o += 2;
         }
-        for v in &s.velocity {
-            out[o] = vel(v[0]);
-            out[o + 1] = vel(v[1]);
+        for (vx, vy) in s.velocity.x.iter().zip(&s.velocity.y) {
+            out[o] = vel(*vx);
+            out[o + 1] = vel(*vy);
             o += 2;
         }
         out[o] = pos(self.target[0]);
@@ -275,7 +277,7 @@ impl ArmBatch {
         &self,
         py: Python<'py>,
     ) -> (Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>) {
-        let n_nodes = self.arms[0].sim.state.position.len();
+        let n_nodes = self.arms[0].sim.system.n_nodes();
         let mut high = vec![POSITION_BOUND as f32; 2 * n_nodes];
         high.resize(4 * n_nodes, VELOCITY_BOUND as f32);
         high.resize(4 * n_nodes + 2, POSITION_BOUND as f32);

@@ -9,6 +9,10 @@
 //! state, loads, damping, rest strains and pickling), `control` (solver, design, energy-shaping
 //! law), `env` (`ArmBatch`), `scenario` (`run_scenario`).
 
+// `octoarm_physics::StepError` (≥ 128 bytes: it names the rod and carries advice) is passed
+// through as it is, once per failed run; boxing it here would only add a conversion.
+#![allow(clippy::result_large_err)]
+
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -61,7 +65,7 @@ pub(crate) fn step_error(py: Python<'_>, e: octoarm_physics::StepError) -> PyErr
     set("domain", domain.into_pyobject(py).unwrap().into_any());
     set("index", index.into_pyobject(py).unwrap().into_any());
     set("element", index.into_pyobject(py).unwrap().into_any());
-    set("rod", rod.into_pyobject(py).unwrap().into_any());
+    set("rod", rod.as_deref().into_pyobject(py).unwrap().into_any());
     set("time", time.into_pyobject(py).unwrap().into_any());
     set("step", step.into_pyobject(py).unwrap().into_any());
     set("dt", dt.into_pyobject(py).unwrap().into_any());
@@ -85,7 +89,7 @@ fn _octoarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<control::EnergyShapingController>()?;
     m.add_class::<env::ArmBatch>()?;
     m.add_function(wrap_pyfunction!(rod::rust_step_rate, m)?)?;
-    m.add_function(wrap_pyfunction!(rod::_simulation_from_bytes, m)?)?;
+    m.add_function(wrap_pyfunction!(rod::simulation_from_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::run_scenario, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

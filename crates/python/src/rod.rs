@@ -1,69 +1,242 @@
-//! `Simulation`: one rod (any geometry and material, or the paper's arm), its loads, obstacles,
-//! damping and rest strains, stepped with the GIL released; state read as NumPy copies.
+//! `Simulation`: one rod (any geometry and material, or the paper's arm) or a system of named
+//! rods with joints, their loads, obstacles, damping and rest strains, stepped with the GIL
+//! released; state read as NumPy copies and written with shape checks, per rod; exact pickling
+//! and deep copies (the physics state serialised with postcard). The one-rod shortcuts
+//! (`positions`, `tip`, …) refuse a system of several rods and point to `rod_state(name)`.
 
-use crate::arrays::{mat3s, read_vec3s, scalars, vec3s};
+use crate::arrays::{mat3s, read_mat3s, read_vec3s, scalars, vec3s, ArrayPair};
+use crate::system::{build_system, check_count, end_condition, quoted, single_rod, Joint, Rod};
 use crate::{model_error, step_error};
-use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyArray3};
 use octoarm_physics as phys;
-use octoarm_physics::{Boundary, Damping, Load, Material, Settings, Sphere, StraightRod, Vec3};
+use octoarm_physics::math::orthonormality_defect;
+use octoarm_physics::{
+    Damping, EndCondition, Load, Material, Schedule, Settings, Sphere, StraightRod, SystemState,
+    Vec3, Workspace,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict};
 use std::time::Instant;
 
-/// One Cosserat rod with its loads, obstacles, damping and numerical settings (SI units).
-/// Domains: nodes (n + 1), elements (n), interior points (n − 1). Array getters return copies.
+/// Start of a pickled simulation: a tag, then the format version.
+const PICKLE_TAG: &[u8] = b"octoarm.Simulation";
+/// Version of the pickle layout (bump when the serialised physics types change).
+const PICKLE_FORMAT: u8 = 1;
+
+/// One Cosserat rod, or a system of named rods joined by joints, with loads, obstacles, damping
+/// and numerical settings (SI units). Domains per rod: nodes (n + 1), elements (n), interior
+/// points (n − 1). Array getters return copies. Methods that concern one rod take `rod=` (a
+/// rod's name; default: the only rod, an error naming the rods when there are several).
+/// `pickle` and `copy.deepcopy` are exact: a restored copy steps to the same bits.
 #[pyclass(module = "octoarm")]
 #[derive(Clone)]
 pub struct Simulation {
     pub(crate) inner: phys::Simulation,
 }
 
-pub(crate) fn boundary_from(s: &str) -> PyResult<Boundary> {
+fn boundary_from(s: &str) -> PyResult<(EndCondition, EndCondition)> {
     match s {
-        "clamped" => Ok(Boundary::ClampedBase),
-        "free" => Ok(Boundary::Free),
+        "clamped" => Ok((EndCondition::Clamped, EndCondition::Free)),
+        "free" => Ok((EndCondition::Free, EndCondition::Free)),
         other => Err(PyValueError::new_err(format!(
-            "boundary = {other:?} is not allowed; use \"clamped\" or \"free\""
+            "boundary = {other:?} is not allowed; use \"clamped\" or \"free\" (or base= / tip= \
+             for \"pinned\", \"clamped\", \"free\" or a Motion at each end)"
         ))),
     }
 }
 
-fn check_count(field: &str, value: i64, min: i64) -> PyResult<usize> {
-    if value < min {
-        return Err(PyValueError::new_err(format!(
-            "{field} = {value} is outside the allowed range [{min}, inf)"
-        )));
+/// The schedule of a load ramped over `ramp_time` [s] (0: constant).
+fn ramp(ramp_time: f64) -> PyResult<Schedule> {
+    if ramp_time == 0.0 {
+        Ok(Schedule::Constant)
+    } else if ramp_time.is_finite() && ramp_time > 0.0 {
+        Ok(Schedule::Ramp {
+            duration: ramp_time,
+        })
+    } else {
+        Err(PyValueError::new_err(format!(
+            "ramp_time = {ramp_time} is outside the allowed range [0, inf)"
+        )))
     }
-    Ok(value as usize)
 }
 
 impl Simulation {
-    pub(crate) fn from_rod(rod: &StraightRod, dt: f64, energy_consistent: bool) -> PyResult<Self> {
-        let (model, state) = rod.build().map_err(model_error)?;
-        let settings = Settings {
-            energy_consistent,
-            ..Settings::with_dt(dt)
+    fn names(&self) -> Vec<&str> {
+        self.inner
+            .system
+            .rods()
+            .iter()
+            .map(|r| r.name.as_str())
+            .collect()
+    }
+
+    /// Index of the rod called `rod`, or of the only rod when `rod` is None.
+    pub(crate) fn rod_index(&self, rod: Option<&str>) -> PyResult<usize> {
+        let names = self.names();
+        match rod {
+            None if names.len() == 1 => Ok(0),
+            None => Err(PyValueError::new_err(format!(
+                "this simulation has {} rods ({}): pass rod=NAME to say which",
+                names.len(),
+                quoted(&names)
+            ))),
+            Some(name) => names.iter().position(|n| *n == name).ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "rod = {name:?} is not a rod of this simulation; its rods are {}",
+                    quoted(&names)
+                ))
+            }),
+        }
+    }
+
+    /// The only rod, for the one-rod shortcuts; `what` names the shortcut in the error.
+    fn only_rod(&self, what: &str) -> PyResult<usize> {
+        let names = self.names();
+        if names.len() == 1 {
+            return Ok(0);
+        }
+        Err(PyValueError::new_err(format!(
+            "{what} is a one-rod shortcut, but this simulation has {} rods ({}): use \
+             rod_state(name) (and rest_strains(rod=name), energies(rod=name), …) for one of them",
+            names.len(),
+            quoted(&names)
+        )))
+    }
+
+    /// After the state was written from outside: a fresh workspace, so that the stability guard
+    /// takes its energy reference from the new state (as for a simulation built at it). The
+    /// rest of the workspace is scratch that every step rewrites.
+    fn state_written(&mut self) {
+        self.inner.workspace = Workspace::new(&self.inner.system, &self.inner.state);
+    }
+
+    fn rod_state_dict<'py>(&self, py: Python<'py>, r: usize) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.inner.system.rod_state(&self.inner.state, r);
+        let d = PyDict::new(py);
+        d.set_item("positions", vec3s(py, &s.position))?;
+        d.set_item("velocities", vec3s(py, &s.velocity))?;
+        d.set_item("directors", mat3s(py, &s.director))?;
+        d.set_item("angular_velocities", vec3s(py, &s.omega))?;
+        d.set_item("time", s.time)?;
+        Ok(d)
+    }
+
+    /// Write the given arrays of rod `r` into `state` (checked; nothing is written on error).
+    fn write_rod(
+        &self,
+        state: &mut SystemState,
+        r: usize,
+        positions: Option<&Bound<'_, PyAny>>,
+        velocities: Option<&Bound<'_, PyAny>>,
+        directors: Option<&Bound<'_, PyAny>>,
+        angular_velocities: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let system = &self.inner.system;
+        let n = system.rod(r).n_elements();
+        let mut s = system.rod_state(state, r);
+        if let Some(a) = positions {
+            s.position = read_vec3s(a, "positions", n + 1)?;
+        }
+        if let Some(a) = velocities {
+            s.velocity = read_vec3s(a, "velocities", n + 1)?;
+        }
+        if let Some(a) = directors {
+            s.director = read_mat3s(a, "directors", n)?;
+            for (j, q) in s.director.iter().enumerate() {
+                let defect = orthonormality_defect(q);
+                if defect > 1e-9 {
+                    return Err(PyValueError::new_err(format!(
+                        "directors[{j}] is not orthonormal (|Q Qᵀ − I| = {defect:e}, allowed ≤ 1e-9)"
+                    )));
+                }
+            }
+        }
+        if let Some(a) = angular_velocities {
+            s.omega = read_vec3s(a, "angular_velocities", n)?;
+        }
+        system.set_rod_state(state, r, &s).map_err(model_error)
+    }
+
+    /// The state as bytes: tag, format, package version, then the postcard encoding of the
+    /// physics simulation (system, state, actuation, workspace; every f64 as its 8 bytes).
+    fn to_bytes_vec(&self) -> PyResult<Vec<u8>> {
+        let payload = postcard::to_allocvec(&self.inner)
+            .map_err(|e| PyValueError::new_err(format!("cannot serialise the simulation: {e}")))?;
+        let version = env!("CARGO_PKG_VERSION").as_bytes();
+        let mut out = Vec::with_capacity(PICKLE_TAG.len() + 2 + version.len() + payload.len());
+        out.extend_from_slice(PICKLE_TAG);
+        out.push(PICKLE_FORMAT);
+        out.push(version.len() as u8);
+        out.extend_from_slice(version);
+        out.extend_from_slice(&payload);
+        Ok(out)
+    }
+
+    fn from_bytes_slice(data: &[u8]) -> PyResult<Self> {
+        let bad =
+            |why: String| PyValueError::new_err(format!("not a pickled octoarm.Simulation: {why}"));
+        let rest = data
+            .strip_prefix(PICKLE_TAG)
+            .ok_or_else(|| bad("the data does not start with its tag".into()))?;
+        let [format, len, rest @ ..] = rest else {
+            return Err(bad("the data is truncated".into()));
         };
-        let inner = phys::Simulation::new(model, state, settings).map_err(model_error)?;
+        let len = *len as usize;
+        if rest.len() < len {
+            return Err(bad("the data is truncated".into()));
+        }
+        let (version, payload) = rest.split_at(len);
+        let version = String::from_utf8_lossy(version);
+        if *format != PICKLE_FORMAT || version != env!("CARGO_PKG_VERSION") {
+            return Err(PyValueError::new_err(format!(
+                "this simulation was pickled by octoarm {version} (format {format}); this is \
+                 octoarm {} (format {PICKLE_FORMAT}): unpickle it with the version that wrote it",
+                env!("CARGO_PKG_VERSION")
+            )));
+        }
+        let (inner, left): (phys::Simulation, &[u8]) =
+            postcard::take_from_bytes(payload).map_err(|e| bad(e.to_string()))?;
+        if !left.is_empty() {
+            return Err(bad(format!("{} bytes left over", left.len())));
+        }
+        let (sys, st) = (&inner.system, &inner.state);
+        let sizes_fit = st.position.len() == sys.n_nodes()
+            && st.velocity.len() == sys.n_nodes()
+            && st.director.len() == sys.n_elements()
+            && st.omega.len() == sys.n_elements()
+            && st.work.len() == sys.rods().len()
+            && st.dissipated.len() == sys.rods().len()
+            && inner.actuation.shape() == (sys.n_nodes(), sys.n_elements(), sys.n_interior());
+        if !sizes_fit {
+            return Err(bad("its state does not fit its system".into()));
+        }
         Ok(Self { inner })
     }
 }
 
 #[pymethods]
 impl Simulation {
-    /// Build a straight (optionally tapered, optionally pre-curved) rod. Defaults are the paper's
-    /// arm: 100 elements, L = 0.2 m, diameter 2 cm → 0.04 cm, ρ = 700 kg/m³, E = 10 kPa,
-    /// G = 1 kPa, along +x with d1 = e_y, clamped at the origin, dt = 1e-5 s.
+    /// Build one straight (optionally tapered, optionally pre-curved) rod. Defaults are the
+    /// paper's arm: 100 elements, L = 0.2 m, diameter 2 cm → 0.04 cm, ρ = 700 kg/m³,
+    /// E = 10 kPa, G = 1 kPa, along +x with d1 = e_y, clamped at the origin, dt = 1e-5 s.
+    /// Ends: `boundary` "clamped" (base clamped, tip free: the default) or "free" (both free);
+    /// or `base=` / `tip=` each "free", "pinned", "clamped" or a `Motion` (defaults clamped /
+    /// free), not together with `boundary`. For several rods see `Simulation.from_rods`.
     #[new]
     #[pyo3(signature = (
         n_elements = 100, length = 0.2, base_diameter = 0.02, tip_diameter = 0.0004,
         density = 700.0, youngs_modulus = 1.0e4, shear_modulus = 1.0e3,
         shear_coefficient = Material::DEFAULT_SHEAR_COEFFICIENT,
         base_position = [0.0, 0.0, 0.0], direction = [1.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0],
-        rest_curvature = [0.0, 0.0, 0.0], boundary = "clamped", dt = 1.0e-5,
-        energy_consistent = false
+        rest_curvature = [0.0, 0.0, 0.0], boundary = None, dt = 1.0e-5,
+        energy_consistent = false, base = None, tip = None
     ))]
+    #[pyo3(text_signature = "(n_elements=100, length=0.2, base_diameter=0.02, \
+        tip_diameter=0.0004, density=700.0, youngs_modulus=10000.0, shear_modulus=1000.0, \
+        shear_coefficient=0.9642857142857143, base_position=(0.0, 0.0, 0.0), \
+        direction=(1.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), rest_curvature=(0.0, 0.0, 0.0), \
+        boundary=None, dt=1e-05, energy_consistent=False, base=None, tip=None)")]
     #[allow(clippy::too_many_arguments)]
     fn new(
         n_elements: i64,
@@ -78,9 +251,11 @@ impl Simulation {
         direction: Vec3,
         normal: Vec3,
         rest_curvature: Vec3,
-        boundary: &str,
+        boundary: Option<&str>,
         dt: f64,
         energy_consistent: bool,
+        base: Option<&Bound<'_, PyAny>>,
+        tip: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let rod = StraightRod {
             n_elements: check_count("n_elements", n_elements, 2)?,
@@ -97,9 +272,27 @@ impl Simulation {
             direction,
             normal,
             rest_curvature,
-            boundary: boundary_from(boundary)?,
         };
-        Self::from_rod(&rod, dt, energy_consistent)
+        let (mut b, mut t) = boundary_from(boundary.unwrap_or("clamped"))?;
+        if boundary.is_some() && (base.is_some() || tip.is_some()) {
+            return Err(PyValueError::new_err(
+                "boundary and base= / tip= are alternatives: give boundary (\"clamped\" or \
+                 \"free\") or the end conditions base= and tip=, not both",
+            ));
+        }
+        if let Some(o) = base {
+            b = end_condition("base", o)?;
+        }
+        if let Some(o) = tip {
+            t = end_condition("tip", o)?;
+        }
+        let settings = Settings {
+            energy_consistent,
+            ..Settings::with_dt(dt)
+        };
+        Ok(Self {
+            inner: single_rod(&rod, b, t, settings)?,
+        })
     }
 
     /// The paper's arm (`StraightRod::paper_arm`) with `n_elements` elements and time step `dt`.
@@ -107,12 +300,71 @@ impl Simulation {
     #[pyo3(signature = (dt = 1.0e-5, n_elements = 100))]
     fn paper_arm(dt: f64, n_elements: i64) -> PyResult<Self> {
         let rod = StraightRod::paper_arm().with_elements(check_count("n_elements", n_elements, 2)?);
-        Self::from_rod(&rod, dt, false)
+        let inner = single_rod(
+            &rod,
+            EndCondition::Clamped,
+            EndCondition::Free,
+            Settings::with_dt(dt),
+        )?;
+        Ok(Self { inner })
     }
 
-    /// An independent copy (model, state, loads, counters).
+    /// A system of rods (a sequence of `Rod`, names unique) joined by `joints` (a sequence of
+    /// `Joint`), at rest in the rods' initial shapes at t = 0, undamped, time step `dt` [s].
+    #[staticmethod]
+    #[pyo3(signature = (rods, joints = Vec::new(), dt = 1.0e-5, energy_consistent = false),
+        text_signature = "(rods, joints=(), dt=1e-05, energy_consistent=False)")]
+    fn from_rods(
+        rods: Vec<PyRef<'_, Rod>>,
+        joints: Vec<PyRef<'_, Joint>>,
+        dt: f64,
+        energy_consistent: bool,
+    ) -> PyResult<Self> {
+        let rods: Vec<Rod> = rods.iter().map(|r| (**r).clone()).collect();
+        let joints: Vec<Joint> = joints.iter().map(|j| (**j).clone()).collect();
+        let settings = Settings {
+            energy_consistent,
+            ..Settings::with_dt(dt)
+        };
+        let (system, state) = build_system(&rods, &joints, settings)?;
+        Ok(Self {
+            inner: phys::Simulation::from_parts(system, state),
+        })
+    }
+
+    /// An independent copy (system, state, actuation, counters and guard history).
     fn copy(&self) -> Self {
         self.clone()
+    }
+
+    fn __copy__(&self) -> Self {
+        self.clone()
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Self {
+        self.clone()
+    }
+
+    /// The simulation as bytes (what pickle stores): restored by `Simulation.from_bytes` to the
+    /// last bit, by the same octoarm version.
+    fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        Ok(PyBytes::new(py, &self.to_bytes_vec()?))
+    }
+
+    /// A simulation from `to_bytes` (or a pickle's payload). Refuses data of another version.
+    #[staticmethod]
+    fn from_bytes(data: &[u8]) -> PyResult<Self> {
+        Self::from_bytes_slice(data)
+    }
+
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
+        let restore = py
+            .import("octoarm._octoarm")?
+            .getattr("_simulation_from_bytes")?;
+        Ok((restore, (self.to_bytes(py)?,)))
     }
 
     /// Advance `n` steps (GIL released), then run the stability guard on the final state.
@@ -124,17 +376,136 @@ impl Simulation {
         py.detach(|| sim.run(n)).map_err(|e| step_error(py, e))
     }
 
-    /// Add uniform gravity g [m/s²] (lab frame).
-    fn add_gravity(&mut self, acceleration: Vec3) -> PyResult<()> {
+    /// Names of the rods, in system order.
+    #[getter]
+    fn rod_names(&self) -> Vec<String> {
+        self.names().into_iter().map(String::from).collect()
+    }
+
+    /// Number of rods.
+    #[getter]
+    fn n_rods(&self) -> usize {
+        self.inner.system.rods().len()
+    }
+
+    /// State of one rod as a dict of copies: positions [m] (n + 1, 3) and velocities [m/s]
+    /// (n + 1, 3), lab frame; directors (n, 3, 3), rows d1, d2, d3 in lab components;
+    /// angular_velocities [rad/s] (n, 3), material frame; time [s].
+    #[pyo3(signature = (name = None))]
+    fn rod_state<'py>(&self, py: Python<'py>, name: Option<&str>) -> PyResult<Bound<'py, PyDict>> {
+        let r = self.rod_index(name)?;
+        self.rod_state_dict(py, r)
+    }
+
+    /// Overwrite any of one rod's positions (n + 1, 3), velocities (n + 1, 3), directors
+    /// (n, 3, 3; orthonormal) and angular_velocities (n, 3). Shapes must match exactly and
+    /// entries be finite; on any error nothing is written. Held ends keep their held pose (it
+    /// is re-applied at the next step). The stability guard takes its energy reference from the
+    /// new state.
+    #[pyo3(signature = (name = None, *, positions = None, velocities = None, directors = None,
+        angular_velocities = None))]
+    fn set_rod_state(
+        &mut self,
+        name: Option<&str>,
+        positions: Option<&Bound<'_, PyAny>>,
+        velocities: Option<&Bound<'_, PyAny>>,
+        directors: Option<&Bound<'_, PyAny>>,
+        angular_velocities: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let r = self.rod_index(name)?;
+        let mut state = self.inner.state.clone();
+        self.write_rod(
+            &mut state,
+            r,
+            positions,
+            velocities,
+            directors,
+            angular_velocities,
+        )?;
+        self.inner.state = state;
+        self.state_written();
+        Ok(())
+    }
+
+    /// The state of every rod: {rod name: rod_state(name)}.
+    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (r, name) in self.names().into_iter().enumerate() {
+            d.set_item(name, self.rod_state_dict(py, r)?)?;
+        }
+        Ok(d)
+    }
+
+    /// Overwrite the state of the rods named in `d` (as `state()` returns it: {rod name: {
+    /// "positions": …, "velocities": …, "directors": …, "angular_velocities": …}}, any subset of
+    /// rods and arrays; a "time" entry is ignored: time is the step count's). All or nothing.
+    fn set_state(&mut self, d: &Bound<'_, PyDict>) -> PyResult<()> {
+        let mut state = self.inner.state.clone();
+        for (key, value) in d.iter() {
+            let name: String = key.extract().map_err(|_| {
+                PyValueError::new_err(format!(
+                    "set_state takes {{rod name: {{array name: array}}}}; {key} is not a rod name"
+                ))
+            })?;
+            let r = self.rod_index(Some(&name))?;
+            let arrays = value.cast::<PyDict>().map_err(|_| {
+                PyValueError::new_err(format!(
+                    "set_state: the entry of rod {name:?} must be a dict of arrays"
+                ))
+            })?;
+            let (mut p, mut v, mut q, mut w) = (None, None, None, None);
+            for (k, a) in arrays.iter() {
+                match k.extract::<String>()?.as_str() {
+                    "positions" => p = Some(a),
+                    "velocities" => v = Some(a),
+                    "directors" => q = Some(a),
+                    "angular_velocities" => w = Some(a),
+                    "time" => {}
+                    other => {
+                        return Err(PyValueError::new_err(format!(
+                            "set_state: rod {name:?} has an entry {other:?}; allowed are \
+                             \"positions\", \"velocities\", \"directors\", \"angular_velocities\" \
+                             (and \"time\", ignored)"
+                        )))
+                    }
+                }
+            }
+            self.write_rod(
+                &mut state,
+                r,
+                p.as_ref(),
+                v.as_ref(),
+                q.as_ref(),
+                w.as_ref(),
+            )?;
+        }
+        self.inner.state = state;
+        self.state_written();
+        Ok(())
+    }
+
+    /// Add uniform gravity g [m/s²] (lab frame) on a rod.
+    #[pyo3(signature = (acceleration, rod = None))]
+    fn add_gravity(&mut self, acceleration: Vec3, rod: Option<&str>) -> PyResult<()> {
+        let r = self.rod_index(rod)?;
         self.inner
-            .add_load(Load::Gravity { acceleration })
+            .system
+            .add_load(r, Load::Gravity { acceleration }, Schedule::Constant)
             .map_err(model_error)
     }
 
-    /// Add a point force [N] (lab) on `node` (default: the tip), ramped over `ramp_time` [s].
-    #[pyo3(signature = (force, node = None, ramp_time = 0.0))]
-    fn add_node_force(&mut self, force: Vec3, node: Option<i64>, ramp_time: f64) -> PyResult<()> {
-        let n = self.inner.model.n_elements;
+    /// Add a point force [N] (lab) on `node` (default: the tip) of a rod, ramped linearly from 0
+    /// over `ramp_time` [s] (0: at once).
+    #[pyo3(signature = (force, node = None, ramp_time = 0.0, rod = None))]
+    fn add_node_force(
+        &mut self,
+        force: Vec3,
+        node: Option<i64>,
+        ramp_time: f64,
+        rod: Option<&str>,
+    ) -> PyResult<()> {
+        let r = self.rod_index(rod)?;
+        let n = self.inner.system.rod(r).n_elements();
         let node = match node {
             None => n,
             Some(i) if (0..=n as i64).contains(&i) => i as usize,
@@ -145,30 +516,39 @@ impl Simulation {
             }
         };
         self.inner
-            .add_load(Load::NodeForce {
-                node,
-                force,
-                ramp_time,
-            })
+            .system
+            .add_load(r, Load::NodeForce { node, force }, ramp(ramp_time)?)
             .map_err(model_error)
     }
 
-    /// Add a distributed force per rest length [N/m] (lab).
-    fn add_uniform_force(&mut self, force_per_length: Vec3) -> PyResult<()> {
+    /// Add a distributed force per rest length [N/m] (lab) on a rod.
+    #[pyo3(signature = (force_per_length, rod = None))]
+    fn add_uniform_force(&mut self, force_per_length: Vec3, rod: Option<&str>) -> PyResult<()> {
+        let r = self.rod_index(rod)?;
         self.inner
-            .add_load(Load::UniformForce { force_per_length })
+            .system
+            .add_load(
+                r,
+                Load::UniformForce { force_per_length },
+                Schedule::Constant,
+            )
             .map_err(model_error)
     }
 
-    /// Add a point couple [N m] (lab) on `element` (default: the last), ramped over `ramp_time`.
-    #[pyo3(signature = (couple, element = None, ramp_time = 0.0))]
+    /// Add a point couple [N m] on `element` (default: the last) of a rod, ramped over
+    /// `ramp_time` [s]; lab frame, or material frame (turning with the element) with
+    /// `follower=True`.
+    #[pyo3(signature = (couple, element = None, ramp_time = 0.0, follower = false, rod = None))]
     fn add_element_couple(
         &mut self,
         couple: Vec3,
         element: Option<i64>,
         ramp_time: f64,
+        follower: bool,
+        rod: Option<&str>,
     ) -> PyResult<()> {
-        let n = self.inner.model.n_elements;
+        let r = self.rod_index(rod)?;
+        let n = self.inner.system.rod(r).n_elements();
         let element = match element {
             None => n - 1,
             Some(i) if (0..n as i64).contains(&i) => i as usize,
@@ -179,32 +559,45 @@ impl Simulation {
                 )))
             }
         };
+        let load = if follower {
+            Load::FollowerElementCouple { element, couple }
+        } else {
+            Load::ElementCouple { element, couple }
+        };
         self.inner
-            .add_load(Load::ElementCouple {
-                element,
-                couple,
-                ramp_time,
-            })
+            .system
+            .add_load(r, load, ramp(ramp_time)?)
             .map_err(model_error)
     }
 
-    /// Add a distributed couple per rest length [N m/m]; `follower=True` makes it material-frame.
-    #[pyo3(signature = (couple_per_length, follower = false))]
-    fn add_uniform_couple(&mut self, couple_per_length: Vec3, follower: bool) -> PyResult<()> {
+    /// Add a distributed couple per rest length [N m/m] on a rod; `follower=True` makes it
+    /// material-frame.
+    #[pyo3(signature = (couple_per_length, follower = false, rod = None))]
+    fn add_uniform_couple(
+        &mut self,
+        couple_per_length: Vec3,
+        follower: bool,
+        rod: Option<&str>,
+    ) -> PyResult<()> {
+        let r = self.rod_index(rod)?;
         let load = if follower {
             Load::FollowerCouple { couple_per_length }
         } else {
             Load::UniformCouple { couple_per_length }
         };
-        self.inner.add_load(load).map_err(model_error)
+        self.inner
+            .system
+            .add_load(r, load, Schedule::Constant)
+            .map_err(model_error)
     }
 
-    /// Remove every external load.
+    /// Remove every external load of every rod.
     fn clear_loads(&mut self) {
-        self.inner.loads.clear();
+        self.inner.system.clear_loads();
     }
 
-    /// Add a rigid sphere obstacle: centre [m] at t = 0, radius [m] > 0, velocity [m/s].
+    /// Add a rigid sphere obstacle (every rod touches it): centre [m] at t = 0, radius [m] > 0,
+    /// velocity [m/s].
     #[pyo3(signature = (center, radius, velocity = [0.0, 0.0, 0.0]))]
     fn add_obstacle(&mut self, center: Vec3, radius: f64, velocity: Vec3) -> PyResult<()> {
         self.inner
@@ -216,57 +609,79 @@ impl Simulation {
             .map_err(model_error)
     }
 
-    /// Set damping: mass-proportional `rate` ν_d [1/s] and the paper's per-length `gamma`
-    /// [kg/(m s)], both ≥ 0.
-    #[pyo3(signature = (rate = 0.0, gamma = 0.0))]
-    fn set_damping(&mut self, rate: f64, gamma: f64) -> PyResult<()> {
+    /// Remove every obstacle.
+    fn clear_obstacles(&mut self) {
+        self.inner.system.clear_obstacles();
+    }
+
+    /// Set a rod's damping: mass-proportional `rate` ν_d [1/s] and the paper's per-length
+    /// `gamma` [kg/(m s)], both ≥ 0.
+    #[pyo3(signature = (rate = 0.0, gamma = 0.0, rod = None))]
+    fn set_damping(&mut self, rate: f64, gamma: f64, rod: Option<&str>) -> PyResult<()> {
+        let r = self.rod_index(rod)?;
         self.inner
-            .set_damping(Damping {
-                rate,
-                gamma,
-                analytical: None,
-            })
+            .system
+            .set_damping(
+                r,
+                Damping {
+                    rate,
+                    gamma,
+                    analytical: None,
+                },
+            )
             .map_err(model_error)
     }
 
-    /// Set the rest strains: σ° (n, 3) per element and κ° [1/m] (n − 1, 3) per interior point,
-    /// material frame.
+    /// Set a rod's rest strains in force: σ° (n, 3) per element and κ° [1/m] (n − 1, 3) per
+    /// interior point, material frame.
+    #[pyo3(signature = (sigma, kappa, rod = None))]
     fn set_rest_strains(
         &mut self,
-        sigma: PyReadonlyArray2<'_, f64>,
-        kappa: PyReadonlyArray2<'_, f64>,
+        sigma: &Bound<'_, PyAny>,
+        kappa: &Bound<'_, PyAny>,
+        rod: Option<&str>,
     ) -> PyResult<()> {
-        let n = self.inner.model.n_elements;
-        let s = read_vec3s(&sigma, "sigma", n)?;
-        let k = read_vec3s(&kappa, "kappa", n - 1)?;
+        let r = self.rod_index(rod)?;
+        let n = self.inner.system.rod(r).n_elements();
+        let s = read_vec3s(sigma, "sigma", n)?;
+        let k = read_vec3s(kappa, "kappa", n - 1)?;
         self.inner
-            .model
-            .set_rest_strains(&s, &k)
+            .system
+            .set_rest_strains(r, &s, &k)
             .map_err(model_error)
     }
 
-    /// Number of elements n.
+    /// A rod's rest strains in force (copies): (σ° (n, 3), κ° [1/m] (n − 1, 3)), material frame.
+    #[pyo3(signature = (rod = None))]
+    fn rest_strains<'py>(&self, py: Python<'py>, rod: Option<&str>) -> PyResult<ArrayPair<'py>> {
+        let r = self.rod_index(rod)?;
+        let (s, k) = self.inner.system.rest_strains(r);
+        Ok((vec3s(py, s), vec3s(py, k)))
+    }
+
+    /// Number of elements n of the rod (one-rod shortcut).
     #[getter]
-    fn n_elements(&self) -> usize {
-        self.inner.model.n_elements
+    fn n_elements(&self) -> PyResult<usize> {
+        let r = self.only_rod("n_elements")?;
+        Ok(self.inner.system.rod(r).n_elements())
     }
 
     /// Time step [s].
     #[getter]
     fn dt(&self) -> f64 {
-        self.inner.settings.dt
+        self.inner.settings().dt
     }
 
-    /// Largest stable time step estimate 2/ω_max [s].
+    /// Largest stable time step estimate 2/ω_max of the system [s] (rods and joints).
     #[getter]
     fn stable_dt(&self) -> f64 {
-        self.inner.model.stable_dt()
+        self.inner.system.stable_dt()
     }
 
     /// Simulated time [s].
     #[getter]
     fn time(&self) -> f64 {
-        self.inner.state.time
+        self.inner.time()
     }
 
     /// Steps taken.
@@ -275,64 +690,81 @@ impl Simulation {
         self.inner.steps()
     }
 
-    /// Node positions [m], (n + 1, 3), lab frame (copy).
+    /// Node positions [m], (n + 1, 3), lab frame (copy; one-rod shortcut).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        vec3s(py, &self.inner.state.position)
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let r = self.only_rod("positions")?;
+        let nodes = self.inner.system.rod(r).nodes();
+        Ok(vec3s(py, &self.inner.state.position.to_vec(nodes)))
     }
 
-    /// Node velocities [m/s], (n + 1, 3), lab frame (copy).
+    /// Node velocities [m/s], (n + 1, 3), lab frame (copy; one-rod shortcut).
     #[getter]
-    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        vec3s(py, &self.inner.state.velocity)
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let r = self.only_rod("velocities")?;
+        let nodes = self.inner.system.rod(r).nodes();
+        Ok(vec3s(py, &self.inner.state.velocity.to_vec(nodes)))
     }
 
-    /// Element directors Q, (n, 3, 3); row i is d_(i+1) in lab components (copy).
+    /// Element directors Q, (n, 3, 3); row i is d_(i+1) in lab components (copy; one-rod
+    /// shortcut).
     #[getter]
-    fn directors<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
-        mat3s(py, &self.inner.state.director)
+    fn directors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let r = self.only_rod("directors")?;
+        let elements = self.inner.system.rod(r).elements();
+        Ok(mat3s(py, &self.inner.state.director.to_vec(elements)))
     }
 
-    /// Element angular velocities ω [rad/s], (n, 3), material frame (copy).
+    /// Element angular velocities ω [rad/s], (n, 3), material frame (copy; one-rod shortcut).
     #[getter]
-    fn angular_velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        vec3s(py, &self.inner.state.omega)
+    fn angular_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let r = self.only_rod("angular_velocities")?;
+        let elements = self.inner.system.rod(r).elements();
+        Ok(vec3s(py, &self.inner.state.omega.to_vec(elements)))
     }
 
-    /// Tip (last node) position [m], (3,).
+    /// Tip (last node) position [m], (3,) (one-rod shortcut).
     #[getter]
-    fn tip<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        scalars(py, &self.inner.state.tip())
+    fn tip<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let r = self.only_rod("tip")?;
+        let last = self.inner.system.rod(r).nodes().end - 1;
+        Ok(scalars(py, &self.inner.state.position.get(last)))
     }
 
-    /// Rest shear/stretch strains σ° (n, 3), material frame (copy).
+    /// Rest shear/stretch strains in force σ° (n, 3), material frame (copy; one-rod shortcut).
     #[getter]
-    fn rest_sigma<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        vec3s(py, &self.inner.model.rest_sigma)
+    fn rest_sigma<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let r = self.only_rod("rest_sigma")?;
+        Ok(vec3s(py, self.inner.system.rest_strains(r).0))
     }
 
-    /// Rest curvatures κ° [1/m] (n − 1, 3), material frame (copy).
+    /// Rest curvatures in force κ° [1/m] (n − 1, 3), material frame (copy; one-rod shortcut).
     #[getter]
-    fn rest_kappa<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        vec3s(py, &self.inner.model.rest_kappa)
+    fn rest_kappa<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let r = self.only_rod("rest_kappa")?;
+        Ok(vec3s(py, self.inner.system.rest_strains(r).1))
     }
 
-    /// Current strains: (σ (n, 3) dimensionless, κ (n − 1, 3) [1/m]), material frame.
-    fn strains<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>) {
-        let n = self.inner.model.n_elements;
+    /// A rod's current strains: (σ (n, 3) dimensionless, κ (n − 1, 3) [1/m]), material frame.
+    #[pyo3(signature = (rod = None))]
+    fn strains<'py>(&self, py: Python<'py>, rod: Option<&str>) -> PyResult<ArrayPair<'py>> {
+        let r = self.rod_index(rod)?;
+        let model = &self.inner.system.rod(r).model;
+        let n = model.n_elements;
         let mut sigma = vec![[0.0; 3]; n];
         let mut kappa = vec![[0.0; 3]; n - 1];
-        phys::strains(&self.inner.model, &self.inner.state, &mut sigma, &mut kappa);
-        (vec3s(py, &sigma), vec3s(py, &kappa))
+        let view = self.inner.system.view(&self.inner.state, r);
+        phys::strains(model, &view, &mut sigma, &mut kappa);
+        Ok((vec3s(py, &sigma), vec3s(py, &kappa)))
     }
 
-    /// Energies [J]: translational, rotational, stretch, bend, kinetic, potential, total,
-    /// external_work, dissipated.
-    fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let e = self.inner.energies();
+    /// A rod's energies [J] against its rest strains in force: translational, rotational,
+    /// stretch, bend, kinetic, potential, total, and its external_work and dissipated energy
+    /// since t = 0.
+    #[pyo3(signature = (rod = None))]
+    fn energies<'py>(&self, py: Python<'py>, rod: Option<&str>) -> PyResult<Bound<'py, PyDict>> {
+        let r = self.rod_index(rod)?;
+        let e = phys::rod_energies(&self.inner.system, &self.inner.state, r);
         let d = PyDict::new(py);
         d.set_item("translational", e.translational)?;
         d.set_item("rotational", e.rotational)?;
@@ -341,15 +773,17 @@ impl Simulation {
         d.set_item("kinetic", e.kinetic())?;
         d.set_item("potential", e.potential())?;
         d.set_item("total", e.total())?;
-        d.set_item("external_work", self.inner.external_work())?;
-        d.set_item("dissipated", self.inner.dissipated_energy())?;
+        d.set_item("external_work", self.inner.state.work[r])?;
+        d.set_item("dissipated", self.inner.state.dissipated[r])?;
         Ok(d)
     }
 
-    /// Model constants per domain as a dict of copies: rest_length (n,), radius (n,),
+    /// A rod's model constants per domain as a dict of copies: rest_length (n,), radius (n,),
     /// node_mass (n + 1,), shear_stiffness (n, 3), bend_stiffness (n − 1, 3).
-    fn model<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let m = &self.inner.model;
+    #[pyo3(signature = (rod = None))]
+    fn model<'py>(&self, py: Python<'py>, rod: Option<&str>) -> PyResult<Bound<'py, PyDict>> {
+        let r = self.rod_index(rod)?;
+        let m = &self.inner.system.rod(r).model;
         let d = PyDict::new(py);
         d.set_item("rest_length", scalars(py, &m.rest_length))?;
         d.set_item("radius", scalars(py, &m.radius))?;
@@ -360,14 +794,26 @@ impl Simulation {
     }
 
     fn __repr__(&self) -> String {
+        let sys = &self.inner.system;
+        let what = if sys.rods().len() == 1 {
+            format!("n_elements={}", sys.rod(0).n_elements())
+        } else {
+            format!("rods=[{}]", quoted(&self.names()))
+        };
         format!(
-            "Simulation(n_elements={}, dt={:e}, time={}, steps={})",
-            self.inner.model.n_elements,
-            self.inner.settings.dt,
-            self.inner.state.time,
+            "Simulation({what}, dt={:e}, time={}, steps={})",
+            self.inner.settings().dt,
+            self.inner.time(),
             self.inner.steps()
         )
     }
+}
+
+/// Restore a pickled `Simulation` (the target of `Simulation.__reduce__`).
+#[pyfunction]
+#[pyo3(name = "_simulation_from_bytes")]
+pub fn simulation_from_bytes(data: &[u8]) -> PyResult<Simulation> {
+    Simulation::from_bytes_slice(data)
 }
 
 /// Reference speed of the Rust loop: steps per second of `sim` (copied) advanced `steps` steps in

@@ -182,6 +182,13 @@ impl Rod {
         base_position = [0.0, 0.0, 0.0], direction = [1.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0],
         rest_curvature = [0.0, 0.0, 0.0], base = None, tip = None
     ))]
+    #[pyo3(
+        text_signature = "(name='rod', n_elements=100, length=0.2, base_diameter=0.02, \
+        tip_diameter=0.0004, density=700.0, youngs_modulus=10000.0, shear_modulus=1000.0, \
+        shear_coefficient=0.9642857142857143, base_position=(0.0, 0.0, 0.0), \
+        direction=(1.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), rest_curvature=(0.0, 0.0, 0.0), \
+        base='clamped', tip='free')"
+    )]
     #[allow(clippy::too_many_arguments)]
     fn new(
         name: &str,

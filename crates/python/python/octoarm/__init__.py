@@ -1,8 +1,19 @@
 """octoarm: discrete Cosserat rod simulator and energy-shaping controller of the CyberOctopus arm.
 
-Thin Python bindings of the Rust crates (``octoarm-physics``, ``octoarm-control``). All
-quantities are SI. Array getters return fresh NumPy copies (float64, C-contiguous); nothing
-returned aliases the simulator's memory, because stepping rewrites it with the GIL released.
+Thin Python bindings of the Rust crates (``octoarm-physics``, ``octoarm-control`` and the
+application's library, without its command line). All quantities are SI. Array getters return
+fresh NumPy copies (float64, C-contiguous); nothing returned aliases the simulator's memory,
+because stepping rewrites it with the GIL released.
+
+* :class:`Simulation`: one rod (``Simulation(...)``, ``Simulation.paper_arm()``) or a system of
+  named rods (``Simulation.from_rods([Rod(...), ...], joints=[Joint(...)])``), with per-rod
+  state (``rod_state``, ``set_rod_state``, ``state``, ``set_state``), loads, damping and rest
+  strains (``rod=`` a rod's name). ``pickle`` and ``copy.deepcopy`` are exact.
+* :class:`Rod`, :class:`Motion`, :class:`Joint`: a rod with its end conditions ("free",
+  "pinned", "clamped" or a driven ``Motion``), and joints between rod ends ("rod.base",
+  "rod.tip").
+* :class:`OfflineSolver`, :class:`Design`, :class:`EnergyShapingController`: the controller.
+* :func:`run_scenario`: ``octoarm run`` on a scenario file, passive or controlled.
 
 Importing this package registers the Gymnasium environment ``octoarm/ArmReach-v0``
 (see :mod:`octoarm.env`).
@@ -13,9 +24,13 @@ from ._octoarm import (  # noqa: F401
     Design,
     EnergyShapingController,
     InstabilityError,
+    Joint,
+    Motion,
     OfflineSolver,
+    Rod,
     Simulation,
     __version__,
+    run_scenario,
     rust_step_rate,
 )
 
@@ -24,18 +39,15 @@ __all__ = [
     "Design",
     "EnergyShapingController",
     "InstabilityError",
+    "Joint",
+    "Motion",
     "OfflineSolver",
+    "Rod",
     "Simulation",
     "__version__",
+    "run_scenario",
     "rust_step_rate",
 ]
-
-try:  # run_scenario needs the app crate; present when the package was built with it.
-    from ._octoarm import run_scenario  # noqa: F401
-
-    __all__.append("run_scenario")
-except ImportError:  # pragma: no cover
-    pass
 
 
 def _register() -> None:
