@@ -7,7 +7,7 @@
 use crate::output::{write_member, OutputDir, SpooledArray};
 use crate::pipeline::{Moment, Recorder, RunInfo};
 use anyhow::{anyhow, Context, Result};
-use octoarm_physics::{rod_energies, strains, RodModel, RodState, Vec3};
+use octoarm_physics::{energies_with_rest, strains, RodModel, RodState, Vec3};
 use serde_json::{json, Map, Value};
 use std::fs::File;
 use std::io::BufWriter;
@@ -131,6 +131,9 @@ pub struct TrajectoryRecorder {
     pub control_frames: Vec<ControlFrame>,
     last: (f64, Vec<Vec<Vec3>>),
     last_control: Option<ControlFrame>,
+    // The rest strains in force at a frame (scheduled changes), filled once per frame.
+    rest_sigma: Vec<Vec3>,
+    rest_kappa: Vec<Vec3>,
     target: Vec<f64>,
     design_target: Vec<f64>,
 }
@@ -201,6 +204,8 @@ impl TrajectoryRecorder {
             control_frames: Vec::new(),
             last: (0.0, Vec::new()),
             last_control: None,
+            rest_sigma: system.rest_sigma.clone(),
+            rest_kappa: system.rest_kappa.clone(),
             rods,
             target: Vec::new(),
             design_target: Vec::new(),
@@ -248,8 +253,23 @@ impl Recorder for TrajectoryRecorder {
         buf.clear();
         self.last.0 = s.time;
         self.last.1.resize(self.rods.len(), Vec::new());
+        let (rest_sigma, rest_kappa) = if m.system.rest_changes().is_empty() {
+            (&m.system.rest_sigma, &m.system.rest_kappa)
+        } else {
+            m.system
+                .rest_at(s.time, &mut self.rest_sigma, &mut self.rest_kappa);
+            (&self.rest_sigma, &self.rest_kappa)
+        };
+        let ec = m.system.settings().energy_consistent;
         for (r, rod) in self.rods.iter().enumerate() {
-            let e = rod_energies(m.system, s, r);
+            let sys_rod = m.system.rod(r);
+            let e = energies_with_rest(
+                &rod.model,
+                &m.system.view(s, r),
+                &rest_sigma[sys_rod.elements()],
+                &rest_kappa[sys_rod.interior()],
+                ec,
+            );
             self.series[r].push([
                 e.translational,
                 e.rotational,

@@ -364,7 +364,6 @@ pub struct ShapingController {
     config: ShapingControllerConfig,
     schedule: TaskSchedule,
     rod: usize,
-    dt: f64,
     law: EnergyShapingController,
     shape: Statics,
     shape_valid: bool,
@@ -517,7 +516,6 @@ impl ShapingController {
         Ok(Self {
             config,
             rod,
-            dt: system.settings().dt,
             scratch: StrainField::intrinsic(model),
             arc: model.node_arc_length.clone(),
             law,
@@ -569,7 +567,7 @@ impl Controller for ShapingController {
         _state: &SystemState,
         actuation: &mut Actuation,
     ) -> Result<(), ControlError> {
-        let dt = self.dt;
+        let dt = system.settings().dt;
         let step = (t / dt).round() as u64;
         let step_of = |b: f64| (b / dt - 1e-9).ceil().max(0.0) as u64;
         if let DesignMode::Offline { ramp_time, .. } = self.config.mode {
