@@ -376,14 +376,28 @@ fn drift(system: &RodSystem, state: &mut SystemState, h: f64) {
         let a = [h * w.x[j], h * w.y[j], h * w.z[j]];
         series_ok &= dot(a, a) < EXP_SERIES_MAX_SQ;
     }
-    let q = &mut state.director;
     if series_ok {
+        // Nine entry slices of one length and the three ω slices: the loop indexes without
+        // bounds checks and LLVM can vectorise it across elements.
+        let [m0, m1, m2, m3, m4, m5, m6, m7, m8] = &mut state.director.m;
+        let (m0, m1, m2) = (&mut m0[..n], &mut m1[..n], &mut m2[..n]);
+        let (m3, m4, m5) = (&mut m3[..n], &mut m4[..n], &mut m5[..n]);
+        let (m6, m7, m8) = (&mut m6[..n], &mut m7[..n], &mut m8[..n]);
+        let (wx, wy, wz) = (&w.x[..n], &w.y[..n], &w.z[..n]);
         for j in 0..n {
-            let r = exp_neg_skew_series([h * w.x[j], h * w.y[j], h * w.z[j]]);
-            let qj = q.get(j);
-            q.set(j, &mat_mul(&r, &qj));
+            let r = exp_neg_skew_series([h * wx[j], h * wy[j], h * wz[j]]);
+            let qj = [
+                [m0[j], m1[j], m2[j]],
+                [m3[j], m4[j], m5[j]],
+                [m6[j], m7[j], m8[j]],
+            ];
+            let p = mat_mul(&r, &qj);
+            (m0[j], m1[j], m2[j]) = (p[0][0], p[0][1], p[0][2]);
+            (m3[j], m4[j], m5[j]) = (p[1][0], p[1][1], p[1][2]);
+            (m6[j], m7[j], m8[j]) = (p[2][0], p[2][1], p[2][2]);
         }
     } else {
+        let q = &mut state.director;
         for j in 0..n {
             let r = exp_neg_skew([h * w.x[j], h * w.y[j], h * w.z[j]]);
             let qj = q.get(j);
@@ -459,55 +473,87 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
     for (r, rod) in system.rods.iter().enumerate() {
         let m = &rod.model;
         let n = m.n_elements;
-        let (n0, e0) = (rod.at.node, rod.at.element);
+        let (nodes, elems) = (rod.nodes(), rod.elements());
         let (first_node, last_node, first_elem, end_elem) = free_ranges(rod);
         let k = &ws.kick;
-        let fi = &ws.internal.force;
-        let fe = &ws.external.force;
-        let v = &mut state.velocity;
+        // Every array cut to this rod's range first: the loops then index without bounds checks.
+        let (fix, fiy, fiz) = (
+            &ws.internal.force.x[nodes.clone()],
+            &ws.internal.force.y[nodes.clone()],
+            &ws.internal.force.z[nodes.clone()],
+        );
+        let (fex, fey, fez) = (
+            &ws.external.force.x[nodes.clone()],
+            &ws.external.force.y[nodes.clone()],
+            &ws.external.force.z[nodes.clone()],
+        );
+        let (decay, kick_n, rate_n) = (
+            &k.node_decay[nodes.clone()],
+            &k.node_kick[nodes.clone()],
+            &k.node_rate[nodes.clone()],
+        );
+        let (vx, vy, vz) = (
+            &mut state.velocity.x[nodes.clone()],
+            &mut state.velocity.y[nodes.clone()],
+            &mut state.velocity.z[nodes.clone()],
+        );
+        let inv_m = &m.inv_node_mass[..n + 1];
+        let mass = &m.node_mass[..n + 1];
         let mut work = 0.0;
         let mut diss = 0.0;
         for i in first_node..=last_node {
-            let g = n0 + i;
             let a = [
-                (fi.x[g] + fe.x[g]) * m.inv_node_mass[i],
-                (fi.y[g] + fe.y[g]) * m.inv_node_mass[i],
-                (fi.z[g] + fe.z[g]) * m.inv_node_mass[i],
+                (fix[i] + fex[i]) * inv_m[i],
+                (fiy[i] + fey[i]) * inv_m[i],
+                (fiz[i] + fez[i]) * inv_m[i],
             ];
-            let old = [v.x[g], v.y[g], v.z[g]];
+            let old = [vx[i], vy[i], vz[i]];
             let new = [
-                k.node_decay[g] * old[0] + k.node_kick[g] * a[0],
-                k.node_decay[g] * old[1] + k.node_kick[g] * a[1],
-                k.node_decay[g] * old[2] + k.node_kick[g] * a[2],
+                decay[i] * old[0] + kick_n[i] * a[0],
+                decay[i] * old[1] + kick_n[i] * a[1],
+                decay[i] * old[2] + kick_n[i] * a[2],
             ];
             let mid = [
                 0.5 * (old[0] + new[0]),
                 0.5 * (old[1] + new[1]),
                 0.5 * (old[2] + new[2]),
             ];
-            work += dot([fe.x[g], fe.y[g], fe.z[g]], mid);
-            diss += m.node_mass[i] * k.node_rate[g] * dot(mid, mid);
-            v.x[g] = new[0];
-            v.y[g] = new[1];
-            v.z[g] = new[2];
+            work += dot([fex[i], fey[i], fez[i]], mid);
+            diss += mass[i] * rate_n[i] * dot(mid, mid);
+            vx[i] = new[0];
+            vy[i] = new[1];
+            vz[i] = new[2];
         }
         let gamma_active = rod.damping.gamma > 0.0;
-        let ti = &ws.internal.torque;
-        let ce = &ws.external.couple;
-        let dil = &ws.internal.dilatation[e0..e0 + n];
-        let w = &mut state.omega;
-        let j_over_e = &mut ws.inertia_over_e[e0..e0 + n];
-        for ((je, jj), e) in j_over_e.iter_mut().zip(&m.inertia[..n]).zip(dil) {
+        let (tix, tiy, tiz) = (
+            &ws.internal.torque.x[elems.clone()],
+            &ws.internal.torque.y[elems.clone()],
+            &ws.internal.torque.z[elems.clone()],
+        );
+        let (cex, cey, cez) = (
+            &ws.external.couple.x[elems.clone()],
+            &ws.external.couple.y[elems.clone()],
+            &ws.external.couple.z[elems.clone()],
+        );
+        let dil = &ws.internal.dilatation[elems.clone()];
+        let (wx, wy, wz) = (
+            &mut state.omega.x[elems.clone()],
+            &mut state.omega.y[elems.clone()],
+            &mut state.omega.z[elems.clone()],
+        );
+        let j_over_e = &mut ws.inertia_over_e[elems.clone()];
+        let inertia = &m.inertia[..n];
+        let inv_inertia = &m.inv_inertia[..n];
+        for ((je, jj), e) in j_over_e.iter_mut().zip(inertia).zip(dil) {
             *je = [jj[0] / e, jj[1] / e, jj[2] / e];
         }
         for j in first_elem..end_elem {
-            let g = e0 + j;
             let e = dil[j];
-            let (decay, kick, rate) = k.element(g, e, dt, gamma_active);
-            let inv_j = m.inv_inertia[j];
-            let tq = [ti.x[g], ti.y[g], ti.z[g]];
-            let cq = [ce.x[g], ce.y[g], ce.z[g]];
-            let old = [w.x[g], w.y[g], w.z[g]];
+            let (decay, kick, rate) = k.element(elems.start + j, e, dt, gamma_active);
+            let inv_j = inv_inertia[j];
+            let tq = [tix[j], tiy[j], tiz[j]];
+            let cq = [cex[j], cey[j], cez[j]];
+            let old = [wx[j], wy[j], wz[j]];
             let mut new = [0.0; 3];
             for c in 0..3 {
                 let alpha = e * (tq[c] + cq[c]) * inv_j[c];
@@ -516,9 +562,9 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
                 work += cq[c] * mid;
                 diss += j_over_e[j][c] * rate * mid * mid;
             }
-            w.x[g] = new[0];
-            w.y[g] = new[1];
-            w.z[g] = new[2];
+            wx[j] = new[0];
+            wy[j] = new[1];
+            wz[j] = new[2];
         }
         state.work[r] += dt * work;
         state.dissipated[r] += dt * diss;
