@@ -367,21 +367,23 @@ fn read_npy_header<R: Read>(r: &mut R, name: &str) -> Result<Vec<usize>> {
 
 /// Names of the members of an `.npz` file (without `.npy`).
 pub fn npz_names(path: &Path) -> Result<Vec<String>> {
-    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let zip =
-        ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))?;
+    let zip = open_npz(path)?;
     Ok(zip
         .file_names()
         .map(|n| n.trim_end_matches(".npy").to_string())
         .collect())
 }
 
+/// Open an `.npz` file as a zip archive.
+fn open_npz(path: &Path) -> Result<ZipArchive<File>> {
+    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))
+}
+
 /// The shape of member `name` and the values of its entry `index` along the first axis (a
 /// frame). Reads the member up to that frame only.
 pub fn read_npz_frame(path: &Path, name: &str, index: usize) -> Result<(Vec<usize>, Vec<f64>)> {
-    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let mut zip =
-        ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))?;
+    let mut zip = open_npz(path)?;
     let mut member = zip
         .by_name(&format!("{name}.npy"))
         .with_context(|| format!("{}: has no array `{name}`", path.display()))?;
@@ -408,9 +410,7 @@ pub fn read_npz_frame(path: &Path, name: &str, index: usize) -> Result<(Vec<usiz
 
 /// A whole 1-D member of an `.npz` file.
 pub fn read_npz_vector(path: &Path, name: &str) -> Result<Vec<f64>> {
-    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let mut zip =
-        ZipArchive::new(file).with_context(|| format!("{}: not an .npz file", path.display()))?;
+    let mut zip = open_npz(path)?;
     let mut member = zip
         .by_name(&format!("{name}.npy"))
         .with_context(|| format!("{}: has no array `{name}`", path.display()))?;

@@ -164,21 +164,28 @@ fn rest_checksum(sigma: &[Vec3], kappa: &[Vec3]) -> f64 {
     sum
 }
 
+/// System indices of a joint's two end nodes and two end elements.
+fn joint_indices(system: &RodSystem, j: &crate::joints::Joint) -> ([usize; 2], [usize; 2]) {
+    let (a, b) = (&system.rods[j.first.rod], &system.rods[j.second.rod]);
+    (
+        [
+            a.at.node + j.first.side.node(a.n_elements()),
+            b.at.node + j.second.side.node(b.n_elements()),
+        ],
+        [
+            a.at.element + j.first.side.element(a.n_elements()),
+            b.at.element + j.second.side.element(b.n_elements()),
+        ],
+    )
+}
+
 /// Elastic energy stored in the joints' springs [J] (½ k |Δx|² + ½ k_t |θ|² per joint).
 pub fn joint_energy(system: &RodSystem, state: &SystemState) -> f64 {
     system
         .joints
         .iter()
         .map(|j| {
-            let (a, b) = (&system.rods[j.first.rod], &system.rods[j.second.rod]);
-            let node = [
-                a.at.node + j.first.side.node(a.n_elements()),
-                b.at.node + j.second.side.node(b.n_elements()),
-            ];
-            let elem = [
-                a.at.element + j.first.side.element(a.n_elements()),
-                b.at.element + j.second.side.element(b.n_elements()),
-            ];
+            let (node, elem) = joint_indices(system, j);
             let (q1, q2) = (state.director.get(elem[0]), state.director.get(elem[1]));
             j.energy(
                 [state.position.get(node[0]), state.position.get(node[1])],
@@ -281,15 +288,7 @@ pub fn step(
         }
     }
     for j in &system.joints {
-        let (a, b) = (&system.rods[j.first.rod], &system.rods[j.second.rod]);
-        let node = [
-            a.at.node + j.first.side.node(a.n_elements()),
-            b.at.node + j.second.side.node(b.n_elements()),
-        ];
-        let elem = [
-            a.at.element + j.first.side.element(a.n_elements()),
-            b.at.element + j.second.side.element(b.n_elements()),
-        ];
+        let (node, elem) = joint_indices(system, j);
         let (q1, q2) = (state.director.get(elem[0]), state.director.get(elem[1]));
         j.apply(
             [state.position.get(node[0]), state.position.get(node[1])],
