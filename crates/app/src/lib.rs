@@ -8,6 +8,7 @@
 pub mod acceptance;
 pub mod build;
 pub mod initial;
+pub mod outdir;
 pub mod output;
 pub mod pipeline;
 pub mod recorder;

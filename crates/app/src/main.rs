@@ -53,7 +53,7 @@ enum Command {
         #[arg(short, long, value_name = "DIR")]
         out: Option<PathBuf>,
         /// Override [time] duration, in simulated seconds (recorded in the output's scenario.toml).
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         duration: Option<f64>,
     },
     /// Run the paper's four experiments (scenarios/paper/*.toml, compiled in) in parallel and
@@ -69,11 +69,12 @@ enum Command {
         out: PathBuf,
         /// Shorten (or lengthen) every experiment to this many simulated seconds (the paper's
         /// runs last 4 s; acceptance checks about later times are reported as undecided).
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         duration: Option<f64>,
-        /// Worker threads [default: the number of cores, at most 4].
-        #[arg(long, value_name = "N")]
-        threads: Option<usize>,
+        /// Worker threads, 1 to 256 [default: the number of cores, at most the number of
+        /// experiments].
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=256))]
+        threads: Option<u64>,
         /// Run the scenarios of this folder instead of the paper's (every *.toml, by name).
         #[arg(long, value_name = "DIR")]
         scenarios: Option<PathBuf>,
@@ -84,7 +85,7 @@ enum Command {
         /// The scenario file (TOML).
         scenario: PathBuf,
         /// Override [time] duration, in simulated seconds.
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         duration: Option<f64>,
     },
 }
@@ -96,6 +97,31 @@ struct RunFailed {
     message: String,
 }
 
+/// A run stopped by SIGINT / SIGTERM; its outputs are written (exit 128 + signal).
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+struct Interrupted {
+    message: String,
+    signal: i32,
+}
+
+/// Stop flags for SIGINT and SIGTERM: the first signal sets `STOP` to its number (the run then
+/// records its state and writes its outputs); a second one ends the process at once.
+fn install_signal_handlers() -> std::sync::Arc<std::sync::atomic::AtomicUsize> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    use std::sync::atomic::{AtomicBool, AtomicUsize};
+    use std::sync::Arc;
+    let stop = Arc::new(AtomicUsize::new(0));
+    let seen = Arc::new(AtomicBool::new(false));
+    for sig in [SIGINT, SIGTERM] {
+        // Order matters: the shutdown is armed by the flag the first signal sets.
+        let _ = signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, Arc::clone(&seen));
+        let _ = signal_hook::flag::register(sig, Arc::clone(&seen));
+        let _ = signal_hook::flag::register_usize(sig, Arc::clone(&stop), sig as usize);
+    }
+    stop
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(&cli);
@@ -103,8 +129,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<ScenarioError>().is_some()
+            if let Some(i) = e.downcast_ref::<Interrupted>() {
+                ExitCode::from((128 + i.signal) as u8)
+            } else if e.downcast_ref::<ScenarioError>().is_some()
                 || e.downcast_ref::<OutputError>().is_some()
+                || e.downcast_ref::<clap::Error>().is_some()
             {
                 ExitCode::from(2)
             } else {
@@ -163,10 +192,31 @@ fn run(cli: Cli) -> Result<()> {
             for scn in &scenarios {
                 octoarm::build::build_system(scn)?;
             }
-            paper::prepare_root(&out)?;
-            let threads = threads.unwrap_or_else(paper::default_threads);
+            let _lock = paper::prepare_root(&out)?;
+            let threads = threads.map_or_else(paper::default_threads, |t| t as usize);
             let bars = Progress::new(show_progress(cli.quiet));
-            let report = paper::run_paper(&scenarios, &out, threads, true, !cli.quiet, &bars)?;
+            let stop = install_signal_handlers();
+            let report = paper::run_paper(
+                &scenarios,
+                &out,
+                threads,
+                true,
+                !cli.quiet,
+                &bars,
+                Some(&stop),
+            )?;
+            let signal = stop.load(std::sync::atomic::Ordering::Relaxed);
+            if signal != 0 {
+                return Err(Interrupted {
+                    message: format!(
+                        "interrupted (signal {signal}): the experiments stopped where they were and \
+                         wrote what they recorded; report.md in {} says which ran",
+                        out.display()
+                    ),
+                    signal: signal as i32,
+                }
+                .into());
+            }
             if !report.all_ok() {
                 return Err(RunFailed {
                     message: format!(
@@ -203,12 +253,27 @@ fn run(cli: Cli) -> Result<()> {
             let bar =
                 Progress::new(show_progress(cli.quiet)).bar(pipeline::planned_steps(&scn), "");
             let update = |k: u64, t: f64| bar.update(k, t);
+            let stop = install_signal_handlers();
             let opts = RunOptions {
                 progress: Some(&update),
                 figures: Some(&CliFigures),
+                stop: Some(&stop),
             };
             let report = pipeline::run(&scn, prepared, out, &opts)?;
             bar.finish();
+            if let Some(pipeline::Failure::Interrupted(signal)) = &report.failure {
+                return Err(Interrupted {
+                    message: format!(
+                        "interrupted (signal {signal}) at t = {:.6} s: wrote the {} frames recorded \
+                         until then to {} (status \"interrupted\" in summary.json)",
+                        report.data.trajectory.time.last().copied().unwrap_or(0.0),
+                        report.frames,
+                        report.out_dir.display()
+                    ),
+                    signal: *signal,
+                }
+                .into());
+            }
             if let Some(failure) = &report.failure {
                 return Err(RunFailed {
                     message: format!(

@@ -1,6 +1,6 @@
-//! Output files: the output directory written under a temporary name and swapped in whole at
-//! the end (never half-overwritten), `.npy` headers, `.npz` archives assembled from streamed
-//! members, and JSON. It knows nothing of rods or scenarios; `recorder.rs` decides what to write.
+//! Output files: `.npy` headers, `.npz` archives assembled from streamed members (and read back,
+//! for initial states), and JSON. The output folder itself (ownership marker, lock, swap) is
+//! `outdir.rs`. It knows nothing of rods or scenarios; the recorders decide what to write.
 
 use anyhow::{bail, Context, Result};
 use std::fs::{self, File};
@@ -13,139 +13,7 @@ use zip::{CompressionMethod, ZipArchive, ZipWriter};
 /// default 6 and compresses about three times faster, which keeps writing off the critical path.
 pub const NPZ_LEVEL: i64 = 1;
 
-/// Files that mark a directory as an earlier octoarm output, safe to replace.
-const MARKERS: [&str; 2] = ["summary.json", "scenario.toml"];
-
-/// An output directory under construction: files go into a hidden sibling directory and
-/// `commit` swaps it in for the target, so an existing output is replaced whole or not at all.
-#[derive(Debug)]
-pub struct OutputDir {
-    target: PathBuf,
-    tmp: PathBuf,
-    committed: bool,
-}
-
-/// A problem with the output location, found before the first step (exit code 2).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct OutputError(pub String);
-
-impl OutputDir {
-    /// Check that `target` is new, empty or an earlier octoarm output, and create the temporary
-    /// directory beside it. Errors name the path and what to change.
-    pub fn prepare(target: &Path) -> Result<Self, OutputError> {
-        if target.exists() {
-            if !target.is_dir() {
-                return Err(OutputError(format!(
-                    "--out {}: exists and is not a directory; choose another --out",
-                    target.display()
-                )));
-            }
-            let mut entries = fs::read_dir(target).map_err(|e| {
-                OutputError(format!(
-                    "--out {}: cannot read the directory: {e}",
-                    target.display()
-                ))
-            })?;
-            let empty = entries.next().is_none();
-            if !empty && !MARKERS.iter().any(|m| target.join(m).is_file()) {
-                return Err(OutputError(format!(
-                    "--out {}: exists and is not an octoarm output directory (no summary.json); \
-                     refusing to replace it: choose another --out or remove it",
-                    target.display()
-                )));
-            }
-        }
-        let name = target
-            .file_name()
-            .ok_or_else(|| {
-                OutputError(format!(
-                    "--out {}: needs a directory name",
-                    target.display()
-                ))
-            })?
-            .to_string_lossy()
-            .into_owned();
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        fs::create_dir_all(&parent).map_err(|e| {
-            OutputError(format!(
-                "--out {}: cannot create {}: {e}",
-                target.display(),
-                parent.display()
-            ))
-        })?;
-        let tmp = parent.join(format!(".{name}.partial-{}", std::process::id()));
-        if tmp.exists() {
-            let _ = fs::remove_dir_all(&tmp);
-        }
-        fs::create_dir(&tmp).map_err(|e| {
-            OutputError(format!(
-                "--out {}: cannot create {}: {e}",
-                target.display(),
-                tmp.display()
-            ))
-        })?;
-        Ok(Self {
-            target: target.to_path_buf(),
-            tmp,
-            committed: false,
-        })
-    }
-
-    /// Path of a file inside the (temporary) directory.
-    pub fn path(&self, name: &str) -> PathBuf {
-        self.tmp.join(name)
-    }
-
-    /// The final location.
-    pub fn target(&self) -> &Path {
-        &self.target
-    }
-
-    /// Move the finished directory into place, replacing an earlier output whole.
-    pub fn commit(mut self) -> Result<PathBuf> {
-        if self.target.exists() {
-            let old = self.tmp.with_file_name(format!(
-                ".{}.old-{}",
-                self.target
-                    .file_name()
-                    .unwrap_or_default()
-                    .to_string_lossy(),
-                std::process::id()
-            ));
-            fs::rename(&self.target, &old).with_context(|| {
-                format!(
-                    "cannot move the earlier output {} aside",
-                    self.target.display()
-                )
-            })?;
-            if let Err(e) = fs::rename(&self.tmp, &self.target) {
-                let _ = fs::rename(&old, &self.target);
-                return Err(e).with_context(|| {
-                    format!("cannot move the output into {}", self.target.display())
-                });
-            }
-            fs::remove_dir_all(&old).with_context(|| format!("cannot remove {}", old.display()))?;
-        } else {
-            fs::rename(&self.tmp, &self.target).with_context(|| {
-                format!("cannot move the output into {}", self.target.display())
-            })?;
-        }
-        self.committed = true;
-        Ok(self.target.clone())
-    }
-}
-
-impl Drop for OutputDir {
-    fn drop(&mut self) {
-        if !self.committed {
-            let _ = fs::remove_dir_all(&self.tmp);
-        }
-    }
-}
+pub use crate::outdir::{OutputDir, OutputError};
 
 /// The `.npy` (format 1.0) header of a little-endian f64 C-order array of `shape`, padded so
 /// that the data starts at a multiple of 64 bytes.
@@ -188,8 +56,18 @@ pub struct SpooledArray {
     planned: usize,
     written: usize,
     path: PathBuf,
-    zip: ZipWriter<BufWriter<File>>,
+    // None once finished. A spool dropped unfinished (after an I/O error) is abandoned without
+    // the zip writer's own drop, which would try to finish and print to stderr.
+    zip: Option<ZipWriter<BufWriter<File>>>,
     bytes: Vec<u8>,
+}
+
+impl Drop for SpooledArray {
+    fn drop(&mut self) {
+        if let Some(zip) = self.zip.take() {
+            std::mem::forget(zip);
+        }
+    }
 }
 
 impl SpooledArray {
@@ -207,8 +85,9 @@ impl SpooledArray {
         let mut shape = vec![planned];
         shape.extend_from_slice(frame_shape);
         let total = (planned * frame_len * 8) as u64;
-        zip.start_file(format!("{name}.npy"), member_options(total))?;
-        zip.write_all(&npy_header(&shape))?;
+        zip.start_file(format!("{name}.npy"), member_options(total))
+            .and_then(|()| zip.write_all(&npy_header(&shape)).map_err(Into::into))
+            .with_context(|| format!("cannot write {}", path.display()))?;
         Ok(Self {
             name: name.to_string(),
             frame_shape: frame_shape.to_vec(),
@@ -216,7 +95,7 @@ impl SpooledArray {
             planned,
             written: 0,
             path,
-            zip,
+            zip: Some(zip),
             bytes: Vec::with_capacity(frame_len * 8),
         })
     }
@@ -258,7 +137,17 @@ impl SpooledArray {
         for v in values {
             self.bytes.extend_from_slice(&v.to_le_bytes());
         }
-        self.zip.write_all(&self.bytes)?;
+        let zip = self
+            .zip
+            .as_mut()
+            .expect("a spool is written before it is finished");
+        zip.write_all(&self.bytes).with_context(|| {
+            format!(
+                "cannot write array `{}` ({})",
+                self.name,
+                self.path.display()
+            )
+        })?;
         self.written += 1;
         Ok(())
     }
@@ -270,18 +159,21 @@ impl SpooledArray {
 
     /// Close the spool and copy it into `npz` as a member. When fewer frames than planned were
     /// written (a failed run), the member is rewritten with the true frame count.
-    pub fn append_to<W: Write + Seek>(self, npz: &mut ZipWriter<W>) -> Result<()> {
-        let Self {
-            name,
-            frame_shape,
-            frame_len,
-            planned,
-            written,
-            path,
-            zip,
-            ..
-        } = self;
-        let file = zip.finish()?.into_inner().map_err(|e| e.into_error())?;
+    pub fn append_to<W: Write + Seek>(mut self, npz: &mut ZipWriter<W>) -> Result<()> {
+        let zip = self.zip.take().expect("a spool is finished once");
+        let (name, frame_shape, frame_len, planned, written, path) = (
+            self.name.clone(),
+            self.frame_shape.clone(),
+            self.frame_len,
+            self.planned,
+            self.written,
+            self.path.clone(),
+        );
+        let file = zip
+            .finish()
+            .map_err(anyhow::Error::from)
+            .and_then(|w| w.into_inner().map_err(|e| e.into_error().into()))
+            .with_context(|| format!("cannot write {}", path.display()))?;
         drop(file);
         let mut archive = ZipArchive::new(File::open(&path)?)?;
         if written == planned {
@@ -481,33 +373,5 @@ mod tests {
         assert_eq!(b[[1, 3]], 2.0);
         let t: ndarray::Array1<f64> = r.by_name("time.npy").unwrap();
         assert_eq!(t.to_vec(), vec![0.0, 0.5]);
-    }
-
-    #[test]
-    fn output_dir_refuses_foreign_directories_and_replaces_its_own() {
-        let dir = tempfile::tempdir().unwrap();
-        let foreign = dir.path().join("home");
-        fs::create_dir(&foreign).unwrap();
-        fs::write(foreign.join("notes.txt"), "keep").unwrap();
-        assert!(OutputDir::prepare(&foreign).is_err());
-
-        let target = dir.path().join("run");
-        let out = OutputDir::prepare(&target).unwrap();
-        fs::write(out.path("summary.json"), "1").unwrap();
-        out.commit().unwrap();
-        let out = OutputDir::prepare(&target).unwrap();
-        fs::write(out.path("summary.json"), "2").unwrap();
-        // Before commit the earlier output is untouched.
-        assert_eq!(
-            fs::read_to_string(target.join("summary.json")).unwrap(),
-            "1"
-        );
-        out.commit().unwrap();
-        assert_eq!(
-            fs::read_to_string(target.join("summary.json")).unwrap(),
-            "2"
-        );
-        // No temporary directories are left behind.
-        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 2);
     }
 }

@@ -4,7 +4,8 @@
 //! and `report.md` with the derived figures and the acceptance checks each file declares.
 
 use crate::acceptance::Check;
-use crate::output::{OutputDir, OutputError};
+use crate::outdir::{check_replaceable, new_run_id, parent_and_name, Lock, Marker, OutputError};
+use crate::output::OutputDir;
 use crate::paper_figures::{self, DistanceCurve};
 use crate::pipeline::{self, RunOptions, RunReport};
 use crate::progress::Progress;
@@ -88,32 +89,29 @@ pub fn letter(i: usize) -> char {
     (b'A' + (i % 26) as u8) as char
 }
 
-/// Check the output root before anything runs: new, empty, or an earlier `octoarm paper`
-/// output (it has `report.md`). Creates it.
-pub fn prepare_root(root: &Path) -> Result<(), OutputError> {
+/// Check the output root before anything runs — new, empty, or an earlier `octoarm paper`
+/// output holding nothing octoarm did not write (its `.octoarm` marker lists every entry) —,
+/// create it and lock it against a second `octoarm paper`. Keep the lock until the report is
+/// written.
+pub fn prepare_root(root: &Path) -> Result<Lock, OutputError> {
+    let what = "--out";
+    let (parent, name) = parent_and_name(root, what)?;
+    let lock = Lock::take(&parent, &name, what, root)?;
     if root.exists() {
-        if !root.is_dir() {
-            return Err(OutputError(format!(
-                "--out {}: exists and is not a directory; choose another --out",
-                root.display()
-            )));
-        }
-        let mut entries = std::fs::read_dir(root).map_err(|e| {
-            OutputError(format!(
-                "--out {}: cannot read the directory: {e}",
-                root.display()
-            ))
-        })?;
-        if entries.next().is_some() && !root.join("report.md").is_file() {
-            return Err(OutputError(format!(
-                "--out {}: exists and is not an `octoarm paper` output (no report.md); refusing \
-                 to write into it: choose another --out or remove it",
-                root.display()
-            )));
+        check_replaceable(root, what)?;
+        if let Some(m) = Marker::read(root) {
+            if m.kind != "paper" {
+                return Err(OutputError(format!(
+                    "{what} {}: is the output of one `octoarm run`, not of `octoarm paper`; choose \
+                     another --out",
+                    root.display()
+                )));
+            }
         }
     }
     std::fs::create_dir_all(root)
-        .map_err(|e| OutputError(format!("--out {}: cannot create it: {e}", root.display())))
+        .map_err(|e| OutputError(format!("--out {}: cannot create it: {e}", root.display())))?;
+    Ok(lock)
 }
 
 /// The outcome of one experiment of `octoarm paper`.
@@ -148,8 +146,11 @@ fn checks(run: &RunReport) -> &[Check] {
 }
 
 /// Run the experiments into `root` (already prepared) on `threads` workers, each folder
-/// committed as it completes; then write `distance.png` and `report.md`. `progress` prints one
-/// line per finished experiment on stderr; `bars` shows one bar per running experiment.
+/// committed as it completes; then write `distance.png` and `report.md` and the root's marker.
+/// `progress` prints one line per finished experiment on stderr; `bars` shows one bar per
+/// running experiment. When `stop` is set (a signal), running experiments stop and write what
+/// they recorded (status "interrupted"), no new one starts, and the report says which folders
+/// hold this invocation's runs.
 pub fn run_paper(
     scenarios: &[Scenario],
     root: &Path,
@@ -157,7 +158,9 @@ pub fn run_paper(
     figures: bool,
     progress: bool,
     bars: &Progress,
+    stop: Option<&std::sync::atomic::AtomicUsize>,
 ) -> Result<PaperReport> {
+    let run_id = new_run_id();
     let wall = Instant::now();
     let threads = threads.clamp(1, scenarios.len().max(1));
     // Longest first, so that the workers finish together: a rough cost from the scenario — steps
@@ -189,6 +192,12 @@ pub fn run_paper(
                 let k = next.fetch_add(1, Ordering::SeqCst);
                 let Some(&i) = order.get(k) else { break };
                 let scn = &scenarios[i];
+                if stop.is_some_and(|s| s.load(Ordering::Relaxed) != 0) {
+                    results.lock().expect("no worker panics holding the lock")[i] = Some(
+                        PaperResult::Error(format!("{}: not run (interrupted)", scn.name)),
+                    );
+                    continue;
+                }
                 let name = &scn.name;
                 let bar = bars.bar(
                     pipeline::planned_steps(scn),
@@ -198,6 +207,7 @@ pub fn run_paper(
                 let opts = RunOptions {
                     progress: Some(&update),
                     figures: figures.then_some(&cli_figures as &dyn pipeline::Figures),
+                    stop,
                 };
                 let result = pipeline::prepare(scn)
                     .map_err(anyhow::Error::from)
@@ -299,6 +309,32 @@ pub fn run_paper(
     std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
     std::fs::rename(&tmp, root.join("report.md"))
         .with_context(|| format!("cannot write {}", root.join("report.md").display()))?;
+    // The root's marker: everything octoarm wrote here (earlier experiment folders included).
+    let mut entries: Vec<String> = Vec::new();
+    for f in ["report.md", "distance.png"] {
+        if root.join(f).is_file() {
+            entries.push(f.into());
+        }
+    }
+    let previous = Marker::read(root).map(|m| m.entries).unwrap_or_default();
+    for scn in scenarios {
+        let dir = format!("{}/", scn.name);
+        if root.join(&scn.name).is_dir() && !entries.contains(&dir) {
+            entries.push(dir);
+        }
+    }
+    for e in previous {
+        if e.ends_with('/') && root.join(e.trim_end_matches('/')).is_dir() && !entries.contains(&e)
+        {
+            entries.push(e);
+        }
+    }
+    Marker {
+        kind: "paper".into(),
+        run: run_id,
+        entries,
+    }
+    .write(root)?;
     Ok(report)
 }
 
@@ -325,6 +361,18 @@ pub fn report_md(scenarios: &[Scenario], report: &PaperReport) -> String {
         report.threads,
         report.wall_seconds
     );
+    let interrupted = report.results.iter().any(|(_, r)| match r {
+        PaperResult::Ran(run) => matches!(run.failure, Some(pipeline::Failure::Interrupted(_))),
+        PaperResult::Error(e) => e.ends_with("(interrupted)"),
+    });
+    if interrupted {
+        let _ = writeln!(
+            s,
+            "**Interrupted** (SIGINT/SIGTERM): experiments that were running stopped where they were and \
+             wrote what they recorded (status \"interrupted\"); those marked \"not run\" were not \
+             started, and a folder of theirs left here holds an earlier run (its summary.json says when).\n"
+        );
+    }
     let _ = writeln!(
         s,
         "Distance d = |tip − target| / L0 (A–C) or the μ_grasp-weighted mean gap to the object's \

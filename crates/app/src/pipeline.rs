@@ -92,6 +92,9 @@ pub enum Failure {
     Unstable(StepError),
     /// A controller failed to update.
     Control(String),
+    /// The run was stopped by a signal (its number: 2 SIGINT, 15 SIGTERM); the state at the
+    /// stop was recorded.
+    Interrupted(i32),
 }
 
 impl std::fmt::Display for Failure {
@@ -99,6 +102,7 @@ impl std::fmt::Display for Failure {
         match self {
             Failure::Unstable(e) => write!(f, "{e}"),
             Failure::Control(e) => write!(f, "controller: {e}"),
+            Failure::Interrupted(sig) => write!(f, "interrupted by signal {sig}"),
         }
     }
 }
@@ -110,6 +114,9 @@ pub struct RunOptions<'a> {
     pub progress: Option<&'a (dyn Fn(u64, f64) + Sync)>,
     /// Draws the figures (None: no figures).
     pub figures: Option<&'a dyn Figures>,
+    /// Set (to the signal's number) to stop the run: it records the current state, writes its
+    /// outputs with status "interrupted" and returns. Checked before every step.
+    pub stop: Option<&'a std::sync::atomic::AtomicUsize>,
 }
 
 /// The recorded data of a run, for figures and reports.
@@ -222,8 +229,11 @@ pub fn run(
     let mut steps = 0u64;
     for k in 0..=n_steps {
         let global = first_step + k;
+        let stop = opts
+            .stop
+            .map_or(0, |s| s.load(std::sync::atomic::Ordering::Relaxed));
         // 1. Controllers due (never at the last instant: no step follows it).
-        if k < n_steps {
+        if k < n_steps && stop == 0 {
             for (c, every) in controllers.iter_mut().zip(&control_every) {
                 if global % every == 0 {
                     if let Err(e) = c.update(state.time, &system, &state, &mut actuation) {
@@ -235,11 +245,11 @@ pub fn run(
                 break;
             }
         }
-        // 2. Samples of the state at t, after the guard (which the step just ran if due).
-        let due_traj = k % trajectory.every() == 0 || k == n_steps;
-        let due_series = series
-            .as_ref()
-            .is_some_and(|s| k % s.every() == 0 || k == n_steps);
+        // 2. Samples of the state at t, after the guard (which the step just ran if due); an
+        // interrupted run records the state it stops at.
+        let last = k == n_steps || stop != 0;
+        let due_traj = k % trajectory.every() == 0 || last;
+        let due_series = series.as_ref().is_some_and(|s| k % s.every() == 0 || last);
         if due_traj || due_series {
             if k == 0 || global % guard_every != 0 {
                 if let Err(e) = step::check(&system, &state, &mut ws) {
@@ -254,8 +264,14 @@ pub fn run(
                 workspace: &ws,
                 controllers: &mut controllers,
             };
+            let npz = || {
+                format!(
+                    "recording {}",
+                    out.target().join("trajectory.npz").display()
+                )
+            };
             if due_traj {
-                trajectory.record(&mut m)?;
+                trajectory.record(&mut m).with_context(npz)?;
             }
             if due_series {
                 if let Some(s) = &mut series {
@@ -265,6 +281,10 @@ pub fn run(
             if let Some(p) = opts.progress {
                 p(k, state.time);
             }
+        }
+        if stop != 0 {
+            failure = Some(Failure::Interrupted(stop as i32));
+            break;
         }
         if k == n_steps {
             break;
@@ -300,9 +320,17 @@ pub fn run(
         control: controllers.first().map(|c| c.report()),
     };
     let mut summary = Map::new();
-    summary.extend(trajectory.finish(&out, &info)?);
+    let target = out.target().to_path_buf();
+    summary.extend(
+        trajectory
+            .finish(&out, &info)
+            .with_context(|| format!("writing {}", target.join("trajectory.npz").display()))?,
+    );
     if let Some(s) = &mut series {
-        summary.extend(s.finish(&out, &info)?);
+        summary.extend(
+            s.finish(&out, &info)
+                .with_context(|| format!("writing the series of {}", target.display()))?,
+        );
     }
     std::fs::write(out.path("scenario.toml"), scn.resolved_toml())
         .with_context(|| format!("cannot write {}", out.path("scenario.toml").display()))?;
@@ -318,6 +346,7 @@ pub fn run(
                 format!("{} (unstable at t = {time:.4} s)", scn.name)
             }
             Some(Failure::Control(_)) => format!("{} (failed)", scn.name),
+            Some(Failure::Interrupted(_)) => format!("{} (interrupted)", scn.name),
         };
         fig.draw(scn, &data, &out, &title);
     }
@@ -412,11 +441,19 @@ fn summary_json(
             "kind": "controller",
             "message": format!("controller: {msg}"),
         }),
+        Failure::Interrupted(sig) => json!({
+            "kind": "interrupted",
+            "message": format!("interrupted by signal {sig} ({}); the state at the stop is the last frame",
+                if *sig == 2 { "SIGINT" } else if *sig == 15 { "SIGTERM" } else { "signal" }),
+            "signal": sig,
+            "time": final_time,
+        }),
     });
     let status = match failure {
         None => "completed",
         Some(Failure::Unstable(_)) => "unstable",
         Some(Failure::Control(_)) => "failed",
+        Some(Failure::Interrupted(_)) => "interrupted",
     };
     let mut out = Map::new();
     out.insert("program".into(), json!("octoarm"));

@@ -521,7 +521,7 @@ fn refuses_to_replace_a_directory_that_is_not_an_output() {
     let o = octoarm(&["run", "s.toml", "--out", "keep"], tmp.path());
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("is not an octoarm output directory"),
+        stderr(&o).contains("is not an octoarm output") && stderr(&o).contains("notes.txt"),
         "{}",
         stderr(&o)
     );

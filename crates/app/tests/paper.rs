@@ -207,7 +207,11 @@ fn paper_command_writes_every_output_and_matches_run() {
         tmp.path(),
     );
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("not an `octoarm paper` output"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not an octoarm output"));
+    assert_eq!(
+        std::fs::read_to_string(foreign.join("notes.txt")).unwrap(),
+        "keep"
+    );
 }
 
 #[test]
