@@ -2,16 +2,21 @@
 //! optional obstacles, or a tip force), its design (target strains and shape), and the
 //! energy-shaping law that drives one rod of a `Simulation` to that design by writing the
 //! simulation's actuation (constant internal stresses δn, δτ) between steps.
+//!
+//! Threads: like `Simulation`, the solver and the controller are frozen classes holding their
+//! state behind a mutex, so sharing them between threads makes callers wait instead of raising
+//! "Already borrowed". Lock order: controller, then simulation.
 
-use crate::arrays::{mat3s, vec3s, ArrayPair};
+use crate::arrays::{mat3s, read_vec3, vec3s, ArrayPair};
 use crate::rod::Simulation;
-use crate::{model_error, step_error};
+use crate::{lock, lock_detached, model_error, step_error};
 use numpy::{PyArray2, PyArray3};
 use octoarm_control as ctl;
 use octoarm_control::{ShapingConfig, SolverConfig, StrainField, StrainSpace, Task};
 use octoarm_physics::{RodModel, Vec3};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
+use std::sync::Mutex;
 
 fn solve_error(e: ctl::SolveError) -> PyErr {
     match e {
@@ -26,8 +31,8 @@ fn shaping_error(e: ctl::ShapingError) -> PyErr {
 
 /// Rod `r`'s model with the rest strains in force as its natural ones (what the solver designs
 /// from, as the law's intrinsic strains are).
-fn model_in_force(sim: &Simulation, r: usize) -> PyResult<RodModel> {
-    let system = &sim.inner.system;
+fn model_in_force(sim: &octoarm_physics::Simulation, r: usize) -> PyResult<RodModel> {
+    let system = &sim.system;
     let mut model = (*system.rod(r).model).clone();
     let (sigma, kappa) = system.rest_strains(r);
     model.set_rest_strains(sigma, kappa).map_err(model_error)?;
@@ -113,9 +118,9 @@ impl Design {
 /// `Simulation` (`rod=` its name; default the only rod): its model with the rest strains in force
 /// as intrinsic strains, and its base pose as the clamped base. `space` is "planar" (default) or
 /// "full".
-#[pyclass(module = "octoarm")]
+#[pyclass(module = "octoarm", frozen)]
 pub struct OfflineSolver {
-    inner: ctl::OfflineSolver,
+    inner: Mutex<ctl::OfflineSolver>,
 }
 
 #[pymethods]
@@ -124,6 +129,7 @@ impl OfflineSolver {
     #[pyo3(signature = (sim, space = "planar", floor_diameter = 4.0e-3, max_sweeps = 20_000,
         rod = None))]
     fn new(
+        py: Python<'_>,
         sim: &Simulation,
         space: &str,
         floor_diameter: f64,
@@ -146,10 +152,14 @@ impl OfflineSolver {
             max_sweeps,
             ..SolverConfig::default()
         };
-        let model = model_in_force(sim, r)?;
-        let state = sim.inner.system.rod_state(&sim.inner.state, r);
+        let (model, state) = {
+            let s = sim.lock(py);
+            (model_in_force(&s, r)?, s.system.rod_state(&s.state, r))
+        };
         let inner = ctl::OfflineSolver::new(&model, &state, config).map_err(solve_error)?;
-        Ok(Self { inner })
+        Ok(Self {
+            inner: Mutex::new(inner),
+        })
     }
 
     /// Solve the statics of a task (GIL released): reach `target` [m] with tip spring `mu_tip`
@@ -157,13 +167,20 @@ impl OfflineSolver {
     /// (center [m], diameter [m], xi [N/m²]) spheres to avoid. Returns a `Design`.
     #[pyo3(signature = (target = None, mu_tip = 1.0e3, force = None, obstacles = Vec::new()))]
     fn solve(
-        &mut self,
+        &self,
         py: Python<'_>,
-        target: Option<Vec3>,
+        target: Option<&Bound<'_, PyAny>>,
         mu_tip: f64,
-        force: Option<Vec3>,
-        obstacles: Vec<(Vec3, f64, f64)>,
+        force: Option<&Bound<'_, PyAny>>,
+        obstacles: Vec<(Bound<'_, PyAny>, f64, f64)>,
     ) -> PyResult<Design> {
+        let target = target.map(|t| read_vec3(t, "target")).transpose()?;
+        let force = force.map(|f| read_vec3(f, "force")).transpose()?;
+        let obstacles = obstacles
+            .iter()
+            .enumerate()
+            .map(|(k, (c, d, xi))| Ok((read_vec3(c, &format!("obstacles[{k}] center"))?, *d, *xi)))
+            .collect::<PyResult<Vec<(Vec3, f64, f64)>>>()?;
         let mut task = match (target, force) {
             (Some(t), None) => Task::reach(t, mu_tip),
             (None, Some(f)) => Task::tip_force(f),
@@ -176,11 +193,14 @@ impl OfflineSolver {
         for (center, diameter, xi) in obstacles {
             task = task.with_obstacle(center, diameter, xi);
         }
-        let solver = &mut self.inner;
-        let solution = py
-            .detach(|| solver.solve(&task, None))
+        let (solution, shape) = py
+            .detach(|| {
+                let mut solver = lock_detached(&self.inner);
+                let solution = solver.solve(&task, None)?;
+                let shape = solver.statics_mut().state_of(&solution.strains);
+                Ok((solution, shape))
+            })
             .map_err(solve_error)?;
-        let shape = self.inner.statics_mut().state_of(&solution.strains);
         let r = &solution.report;
         Ok(Design {
             position: shape.position,
@@ -205,24 +225,35 @@ impl OfflineSolver {
 /// δτ = B(κ° − κ̄) into the simulation's actuation, which every step then applies. Creating it
 /// sets the rod's mass-proportional damping rate to `damping_rate` ν_d [1/s] (default 10) and
 /// writes the (zero) control of the intrinsic design.
-#[pyclass(module = "octoarm")]
+#[pyclass(module = "octoarm", frozen)]
 pub struct EnergyShapingController {
-    inner: ctl::EnergyShapingController,
+    inner: Mutex<ctl::EnergyShapingController>,
 }
 
-impl EnergyShapingController {
-    /// The model of the controller's rod in `sim`; errors if `sim` has no such rod of the same
-    /// size (another simulation than the one it was made for).
-    fn model<'s>(&self, sim: &'s Simulation) -> PyResult<&'s RodModel> {
-        let r = self.inner.rod();
-        let rods = sim.inner.system.rods();
-        match rods.get(r) {
-            Some(rod) if rod.n_elements() == self.inner.design().n_elements() => Ok(&rod.model),
-            _ => Err(PyValueError::new_err(
-                "sim is not the simulation this controller was made for (it has no rod like \
-                 the controller's)",
-            )),
-        }
+/// The model of the controller's rod in `sim`; errors if `sim` has no such rod of the same size
+/// (another simulation than the one it was made for).
+fn controlled_model<'s>(
+    ctrl: &ctl::EnergyShapingController,
+    sim: &'s octoarm_physics::Simulation,
+) -> PyResult<&'s RodModel> {
+    match sim.system.rods().get(ctrl.rod()) {
+        Some(rod) if rod.n_elements() == ctrl.design().n_elements() => Ok(&rod.model),
+        _ => Err(PyValueError::new_err(
+            "sim is not the simulation this controller was made for (it has no rod like the \
+             controller's)",
+        )),
+    }
+}
+
+/// Why a controlled step failed: a wrong argument or the stability guard.
+enum Failure {
+    Input(PyErr),
+    Step(octoarm_physics::StepError),
+}
+
+impl From<PyErr> for Failure {
+    fn from(e: PyErr) -> Self {
+        Failure::Input(e)
     }
 }
 
@@ -231,56 +262,70 @@ impl EnergyShapingController {
     #[new]
     #[pyo3(signature = (sim, damping_rate = 10.0, rod = None))]
     fn new(
-        mut sim: PyRefMut<'_, Simulation>,
+        py: Python<'_>,
+        sim: &Simulation,
         damping_rate: f64,
         rod: Option<&str>,
     ) -> PyResult<Self> {
         let r = sim.rod_index(rod)?;
         let config = ShapingConfig { damping_rate };
-        let mut inner = ctl::EnergyShapingController::for_rod(&sim.inner.system, r, config)
-            .map_err(shaping_error)?;
-        let s = &mut sim.inner;
+        let mut s = sim.lock(py);
+        let mut inner =
+            ctl::EnergyShapingController::for_rod(&s.system, r, config).map_err(shaping_error)?;
         let mut d = s.system.rod(r).damping;
         d.rate = damping_rate;
         s.system.set_damping(r, d).map_err(model_error)?;
+        let s = &mut *s;
         inner.actuate(&s.system, &mut s.actuation);
-        Ok(Self { inner })
+        Ok(Self {
+            inner: Mutex::new(inner),
+        })
     }
 
     /// Put `design` in force (refuses degenerate designs with `ValueError`); the simulation's
     /// actuation is rewritten at the next `step`.
-    fn set_design(&mut self, sim: &Simulation, design: &Design) -> PyResult<()> {
-        let model = self.model(sim)?;
-        self.inner
-            .set_design(model, &design.strains)
+    fn set_design(&self, py: Python<'_>, sim: &Simulation, design: &Design) -> PyResult<()> {
+        let mut ctrl = lock(py, &self.inner);
+        let s = sim.lock(py);
+        let model = controlled_model(&ctrl, &s)?;
+        ctrl.set_design(model, &design.strains)
             .map_err(shaping_error)
     }
 
     /// Advance `sim` by `n` steps under the law (GIL released), then run the stability guard.
     #[pyo3(signature = (sim, n = 1))]
-    fn step(&mut self, py: Python<'_>, mut sim: PyRefMut<'_, Simulation>, n: u64) -> PyResult<()> {
-        self.model(&sim)?;
-        let ctrl = &mut self.inner;
-        let s = &mut sim.inner;
+    fn step(&self, py: Python<'_>, sim: &Simulation, n: u64) -> PyResult<()> {
         py.detach(|| {
-            ctrl.run(s, n)?;
-            s.check()
+            let mut ctrl = lock_detached(&self.inner);
+            let mut s = sim.lock_detached();
+            controlled_model(&ctrl, &s)?;
+            ctrl.run(&mut s, n).map_err(Failure::Step)?;
+            s.check().map_err(Failure::Step)
         })
-        .map_err(|e| step_error(py, e))
+        .map_err(|e| match e {
+            Failure::Input(e) => e,
+            Failure::Step(e) => step_error(py, e),
+        })
     }
 
     /// Shaped Hamiltonian [J] of the rod: kinetic energy + strain energy measured from the
     /// design.
-    fn shaped_hamiltonian(&self, sim: &Simulation) -> PyResult<f64> {
-        let model = self.model(sim)?;
-        let view = sim.inner.system.view(&sim.inner.state, self.inner.rod());
-        Ok(self.inner.shaped_hamiltonian(model, &view))
+    fn shaped_hamiltonian(&self, py: Python<'_>, sim: &Simulation) -> PyResult<f64> {
+        let ctrl = lock(py, &self.inner);
+        let s = sim.lock(py);
+        let model = controlled_model(&ctrl, &s)?;
+        let view = s.system.view(&s.state, ctrl.rod());
+        Ok(ctrl.shaped_hamiltonian(model, &view))
     }
 
     /// The constant stresses of the design in force: (δn [N] per element (n, 3), δτ [N m] per
     /// interior point (n − 1, 3)), material frame.
     fn stresses<'py>(&self, py: Python<'py>) -> ArrayPair<'py> {
-        let (n, t) = self.inner.stresses();
-        (vec3s(py, n), vec3s(py, t))
+        let (n, t) = {
+            let ctrl = lock(py, &self.inner);
+            let (n, t) = ctrl.stresses();
+            (n.to_vec(), t.to_vec())
+        };
+        (vec3s(py, &n), vec3s(py, &t))
     }
 }

@@ -4,6 +4,11 @@
 //! private rayon pool; each arm's arithmetic is sequential and independent of the others, so
 //! results are bit-identical whatever the thread count. Randomness (targets) lives in Python.
 //!
+//! Failures are per arm: when the stability guard stops an arm during a control period, that
+//! arm is put back to its state at the start of the period (the last state the guard passed:
+//! finite, inside the observation bounds) and `step` reports the guard's error for it; the
+//! other arms are unaffected. The environments end that arm's episode (truncated).
+//!
 //! Observation (float32, every component dimensionless and inside the finite bounds of
 //! `observation_bounds`): node x, y / L0 in [−1.5, 1.5]; node vx, vy / (10 L0/s) in [−5, 5];
 //! target x, y / L0 in [−1.5, 1.5]; lagged rest-curvature command per segment / max_curvature
@@ -11,14 +16,15 @@
 //! and velocities are clipped to their bounds (the arm is inextensible enough never to reach
 //! 1.5 L0; the velocity bound is ~6× the fastest node seen under bang-bang commands).
 
-use crate::arrays::shape_str;
-use crate::{model_error, rod::Simulation as PySimulation, step_error};
+use crate::arrays::read_array;
+use crate::{lock, lock_detached, model_error, rod::Simulation as PySimulation, step_error};
 use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
 use octoarm_physics::{Damping, Settings, Simulation, StepError, StraightRod};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyBaseException, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 /// Rest length L0 of the arm [m] (the paper's arm): the position scale of the observation.
 const ARM_LENGTH: f64 = 0.2;
@@ -30,12 +36,22 @@ const VELOCITY_SCALE: f64 = 10.0 * ARM_LENGTH;
 const VELOCITY_BOUND: f64 = 5.0;
 
 /// One arm of the batch: the simulation, its initial copy, target, last action and the lagged
-/// rest curvature per segment [1/m] (the actuator state).
+/// rest curvature per segment [1/m] (the actuator state), and the arm as it was at the start
+/// of the current control period (restored if the stability guard stops it).
 #[derive(Clone)]
 struct Arm {
     sim: Simulation,
     initial: Simulation,
     target: [f64; 2],
+    action: Vec<f64>,
+    curvature: Vec<f64>,
+    saved: Saved,
+}
+
+/// An arm's evolving part at the start of a control period.
+#[derive(Clone)]
+struct Saved {
+    sim: Simulation,
     action: Vec<f64>,
     curvature: Vec<f64>,
 }
@@ -51,11 +67,28 @@ struct Config {
 }
 
 impl Arm {
-    /// Drive the in-plane rest curvature κ°₂ of every interior point of segment s towards
-    /// a_s · max_curvature (a clipped to [−1, 1]) while simulating one control period.
+    /// One control period (`run_period`); if the stability guard stops it, the arm is put back
+    /// to its state at the start of the period and the guard's error returned.
     fn advance(&mut self, cfg: &Config, action: &[f64]) -> Result<(), StepError> {
+        self.saved.sim.clone_from(&self.sim);
+        self.saved.action.copy_from_slice(&self.action);
+        self.saved.curvature.copy_from_slice(&self.curvature);
+        let result = self.run_period(cfg, action);
+        if result.is_err() {
+            // The failed state stays in `saved` (overwritten by the next period).
+            std::mem::swap(&mut self.sim, &mut self.saved.sim);
+            self.action.copy_from_slice(&self.saved.action);
+            self.curvature.copy_from_slice(&self.saved.curvature);
+        }
+        result
+    }
+
+    /// Drive the in-plane rest curvature κ°₂ of every interior point of segment s towards
+    /// a_s · max_curvature (a clipped to [−1, 1]; finite, checked by `ArmBatch::step`) while
+    /// simulating one control period.
+    fn run_period(&mut self, cfg: &Config, action: &[f64]) -> Result<(), StepError> {
         for (dst, &a) in self.action.iter_mut().zip(action) {
-            *dst = if a.is_nan() { 0.0 } else { a.clamp(-1.0, 1.0) };
+            *dst = a.clamp(-1.0, 1.0);
         }
         let n_interior = self.sim.system.rest_kappa.len();
         // Muscle-like activation: the rest curvature follows the command with a first-order lag
@@ -132,9 +165,13 @@ impl Arm {
 /// `effort_weight` ≥ 0 (default 0.01); `activation_time` [s] ≥ 0, the lag of the rest
 /// curvature behind the command (default 0.05); `tip_diameter` [m] > 0 (default 4 mm: the paper's
 /// 0.4 mm tip shears past the stability guard under bang-bang commands at this resolution).
-#[pyclass(module = "octoarm")]
+///
+/// Thread-safe: the arms sit behind a mutex, so calls from other threads wait while one steps.
+#[pyclass(module = "octoarm", frozen)]
 pub struct ArmBatch {
-    arms: Vec<Arm>,
+    arms: Mutex<Vec<Arm>>,
+    n_envs: usize,
+    n_nodes: usize,
     cfg: Config,
     pool: Option<rayon::ThreadPool>,
     obs_dim: usize,
@@ -142,9 +179,9 @@ pub struct ArmBatch {
 }
 
 impl ArmBatch {
-    fn obs(&self) -> Array2<f32> {
-        let mut out = Array2::<f32>::zeros((self.arms.len(), self.obs_dim));
-        for (arm, mut row) in self.arms.iter().zip(out.rows_mut()) {
+    fn obs(&self, arms: &[Arm]) -> Array2<f32> {
+        let mut out = Array2::<f32>::zeros((arms.len(), self.obs_dim));
+        for (arm, mut row) in arms.iter().zip(out.rows_mut()) {
             arm.observe(
                 &self.cfg,
                 row.as_slice_mut()
@@ -237,6 +274,11 @@ impl ArmBatch {
         let n_segments = n_segments as usize;
         let arm = Arm {
             initial: sim.clone(),
+            saved: Saved {
+                sim: sim.clone(),
+                action: vec![0.0; n_segments],
+                curvature: vec![0.0; n_segments],
+            },
             sim,
             target: [0.1, 0.1],
             action: vec![0.0; n_segments],
@@ -244,7 +286,9 @@ impl ArmBatch {
         };
         let n_nodes = n_elements as usize + 1;
         Ok(Self {
-            arms: vec![arm; n_envs as usize],
+            arms: Mutex::new(vec![arm; n_envs as usize]),
+            n_envs: n_envs as usize,
+            n_nodes,
             cfg: Config {
                 n_segments,
                 max_curvature,
@@ -261,7 +305,7 @@ impl ArmBatch {
     /// Number of arms.
     #[getter]
     fn n_envs(&self) -> usize {
-        self.arms.len()
+        self.n_envs
     }
 
     /// Length of one observation.
@@ -277,7 +321,7 @@ impl ArmBatch {
         &self,
         py: Python<'py>,
     ) -> (Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>) {
-        let n_nodes = self.arms[0].sim.system.n_nodes();
+        let n_nodes = self.n_nodes;
         let mut high = vec![POSITION_BOUND as f32; 2 * n_nodes];
         high.resize(4 * n_nodes, VELOCITY_BOUND as f32);
         high.resize(4 * n_nodes + 2, POSITION_BOUND as f32);
@@ -320,102 +364,120 @@ impl ArmBatch {
         self.cfg.steps_per_action
     }
 
-    /// Reset the arms `indices` (default: all) to rest with the given targets (k, 2) [m], each
-    /// coordinate within ±1.5 L0 = ±0.3 m; returns the observations of all arms,
-    /// (n_envs, obs_dim) float32.
+    /// Reset the arms `indices` (default: all; distinct, in [0, n_envs − 1]) to rest with the
+    /// given targets (k, 2) [m] (any real dtype), each coordinate within ±1.5 L0 = ±0.3 m;
+    /// returns the observations of all arms, (n_envs, obs_dim) float32. All or nothing: on an
+    /// error no arm is reset.
     #[pyo3(signature = (targets, indices = None))]
     fn reset<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
-        targets: PyReadonlyArray2<'_, f64>,
-        indices: Option<Vec<usize>>,
+        targets: &Bound<'py, PyAny>,
+        indices: Option<Vec<i64>>,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        let indices = indices.unwrap_or_else(|| (0..self.arms.len()).collect());
-        if targets.shape() != [indices.len(), 2] {
-            return Err(PyValueError::new_err(format!(
-                "targets has shape {}, expected ({}, 2)",
-                shape_str(targets.shape()),
-                indices.len()
-            )));
+        let n = self.n_envs;
+        let indices: Vec<usize> = match indices {
+            None => (0..n).collect(),
+            Some(v) => v
+                .into_iter()
+                .map(|i| match usize::try_from(i) {
+                    Ok(i) if i < n => Ok(i),
+                    _ => Err(bad("index", i, &format!("[0, {}] (n_envs - 1)", n - 1))),
+                })
+                .collect::<PyResult<_>>()?,
+        };
+        for (k, i) in indices.iter().enumerate() {
+            if indices[..k].contains(i) {
+                return Err(PyValueError::new_err(format!(
+                    "indices name arm {i} twice; each arm is reset once"
+                )));
+            }
         }
-        let t = targets.as_array();
-        for (row, &i) in indices.iter().enumerate() {
-            if i >= self.arms.len() {
-                return Err(bad("index", i, "[0, n_envs - 1]"));
-            }
-            let target = [t[[row, 0]], t[[row, 1]]];
-            if !target.iter().all(|v| v.is_finite()) {
-                return Err(PyValueError::new_err("targets must be finite"));
-            }
-            let limit = POSITION_BOUND * ARM_LENGTH;
-            for (name, v) in ["target x", "target y"].iter().zip(target) {
+        let t = read_array(targets, "targets", &[indices.len(), 2])?;
+        let limit = POSITION_BOUND * ARM_LENGTH;
+        for target in t.chunks_exact(2) {
+            for (name, &v) in ["target x", "target y"].iter().zip(target) {
                 if v.abs() > limit {
                     return Err(bad(name, v, &format!("[{}, {limit}]", -limit)));
                 }
             }
-            let arm = &mut self.arms[i];
-            arm.sim.clone_from(&arm.initial);
-            arm.target = target;
-            arm.action.fill(0.0);
-            arm.curvature.fill(0.0);
         }
-        Ok(self.obs().into_pyarray(py))
+        let obs = {
+            let mut arms = lock(py, &self.arms);
+            for (target, &i) in t.chunks_exact(2).zip(&indices) {
+                let arm = &mut arms[i];
+                arm.sim.clone_from(&arm.initial);
+                arm.target = [target[0], target[1]];
+                arm.action.fill(0.0);
+                arm.curvature.fill(0.0);
+            }
+            self.obs(&arms)
+        };
+        Ok(obs.into_pyarray(py))
     }
 
-    /// Apply actions (n_envs, action_dim) in [−1, 1] (clipped) for one control period on every
-    /// arm (GIL released, parallel). Returns (observations (n_envs, obs_dim) float32,
-    /// rewards (n_envs,) float64, tip distances (n_envs,) float64 [m]).
+    /// Apply actions (n_envs, action_dim) in [−1, 1] (clipped; any real dtype, finite: NaN or
+    /// ±inf is refused naming its entry; the shape must match exactly) for one control period
+    /// on every arm (GIL released, parallel). Returns (observations (n_envs, obs_dim) float32,
+    /// rewards (n_envs,) float64, tip distances (n_envs,) float64 [m], failures): `failures`
+    /// is a list with, per arm, None or the `InstabilityError` of the stability guard that
+    /// stopped it during this period. A stopped arm is back at its state at the start of the
+    /// period (its observation, reward and distance are those of that state); reset it.
     #[allow(clippy::type_complexity)]
     fn step<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
-        actions: PyReadonlyArray2<'_, f64>,
+        actions: &Bound<'py, PyAny>,
     ) -> PyResult<(
         Bound<'py, PyArray2<f32>>,
         Bound<'py, PyArray1<f64>>,
         Bound<'py, PyArray1<f64>>,
+        Vec<Option<Py<PyBaseException>>>,
     )> {
-        let (n, m) = (self.arms.len(), self.cfg.n_segments);
-        if actions.shape() != [n, m] {
-            return Err(PyValueError::new_err(format!(
-                "actions has shape {}, expected ({n}, {m})",
-                shape_str(actions.shape())
-            )));
-        }
-        let a: Vec<f64> = actions.as_array().iter().copied().collect();
+        let (n, m) = (self.n_envs, self.cfg.n_segments);
+        let a = read_array(actions, "actions", &[n, m])?;
         let cfg = self.cfg;
-        let arms = &mut self.arms;
-        let pool = self.pool.as_ref();
-        let result: Result<(), StepError> = py.detach(|| match pool {
-            None => arms
-                .iter_mut()
-                .zip(a.chunks(m))
-                .try_for_each(|(arm, act)| arm.advance(&cfg, act)),
-            Some(pool) => pool.install(|| {
-                arms.par_iter_mut()
-                    .zip(a.par_chunks(m))
-                    .with_max_len(1)
-                    .try_for_each(|(arm, act)| arm.advance(&cfg, act))
-            }),
+        let (obs, rewards, dist, errors) = py.detach(|| {
+            let mut guard = lock_detached(&self.arms);
+            let arms: &mut Vec<Arm> = &mut guard;
+            let errors: Vec<Option<StepError>> = match self.pool.as_ref() {
+                None => arms
+                    .iter_mut()
+                    .zip(a.chunks(m))
+                    .map(|(arm, act)| arm.advance(&cfg, act).err())
+                    .collect(),
+                Some(pool) => pool.install(|| {
+                    arms.par_iter_mut()
+                        .zip(a.par_chunks(m))
+                        .with_max_len(1)
+                        .map(|(arm, act)| arm.advance(&cfg, act).err())
+                        .collect()
+                }),
+            };
+            let rewards: Vec<f64> = arms.iter().map(|arm| arm.reward(&cfg)).collect();
+            let dist: Vec<f64> = arms.iter().map(Arm::tip_distance).collect();
+            (self.obs(arms), rewards, dist, errors)
         });
-        result.map_err(|e| step_error(py, e))?;
-        let rewards: Vec<f64> = self.arms.iter().map(|arm| arm.reward(&cfg)).collect();
-        let dist: Vec<f64> = self.arms.iter().map(Arm::tip_distance).collect();
+        let failures = errors
+            .into_iter()
+            .map(|e| e.map(|e| step_error(py, e).into_value(py)))
+            .collect();
         Ok((
-            self.obs().into_pyarray(py),
+            obs.into_pyarray(py),
             Array1::from_vec(rewards).into_pyarray(py),
             Array1::from_vec(dist).into_pyarray(py),
+            failures,
         ))
     }
 
     /// A copy of arm `index` as a `Simulation` (for plotting or inspection).
-    fn simulation(&self, index: usize) -> PyResult<PySimulation> {
-        let arm = self
-            .arms
-            .get(index)
-            .ok_or_else(|| bad("index", index, "[0, n_envs - 1]"))?;
-        Ok(PySimulation {
-            inner: arm.sim.clone(),
-        })
+    fn simulation(&self, py: Python<'_>, index: i64) -> PyResult<PySimulation> {
+        let n = self.n_envs;
+        let i = usize::try_from(index)
+            .ok()
+            .filter(|&i| i < n)
+            .ok_or_else(|| bad("index", index, &format!("[0, {}] (n_envs - 1)", n - 1)))?;
+        let sim = lock(py, &self.arms)[i].sim.clone();
+        Ok(PySimulation::from_inner(sim))
     }
 }

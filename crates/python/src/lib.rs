@@ -16,6 +16,8 @@
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::sync::MutexExt;
+use std::sync::{Mutex, MutexGuard, PoisonError};
 
 mod arrays;
 mod control;
@@ -34,6 +36,20 @@ create_exception!(
      `suggested_dt` [s], `advice`. The simulation keeps the state at which the guard fired. \
      Raised by `run_scenario`, it also has `report`, the run's dict (outputs are written)."
 );
+
+/// Lock one of the mutexes that make the classes thread-safe, from a thread attached to Python:
+/// if another thread holds it (stepping with the GIL released), wait with the GIL released, so
+/// that the two cannot deadlock. Never call Python while holding the guard. A panic inside the
+/// physics poisons nothing here: the state stays as the panic left it (as without the lock).
+pub(crate) fn lock<'a, T>(py: Python<'_>, m: &'a Mutex<T>) -> MutexGuard<'a, T> {
+    m.lock_py_attached(py)
+        .unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Lock such a mutex inside `py.detach` (GIL released).
+pub(crate) fn lock_detached<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
 
 /// Map a physics input error to `ValueError`; its text names the argument, value and range.
 pub(crate) fn model_error(e: octoarm_physics::ModelError) -> PyErr {

@@ -3,20 +3,29 @@
 //! released; state read as NumPy copies and written with shape checks, per rod; exact pickling
 //! and deep copies (the physics state serialised with postcard). The one-rod shortcuts
 //! (`positions`, `tip`, …) refuse a system of several rods and point to `rod_state(name)`.
+//!
+//! Threads: the physics simulation sits behind a mutex (the class is frozen), so a
+//! `Simulation` can be shared between Python threads: a reader (say `positions`) waits while
+//! another thread steps it, with the GIL released while waiting, instead of raising
+//! "Already borrowed". The lock is never held while Python code runs (arrays are read before
+//! it is taken and NumPy copies made after it is released), so it cannot deadlock with the GIL.
 
-use crate::arrays::{mat3s, read_mat3s, read_vec3s, scalars, vec3s, ArrayPair};
+use crate::arrays::{
+    mat3s, read_mat3s, read_vec3, read_vec3_or, read_vec3s, scalars, vec3s, ArrayPair,
+};
 use crate::system::{build_system, check_count, end_condition, quoted, single_rod, Joint, Rod};
-use crate::{model_error, step_error};
+use crate::{lock, lock_detached, model_error, step_error};
 use numpy::{PyArray1, PyArray2, PyArray3};
 use octoarm_physics as phys;
 use octoarm_physics::math::orthonormality_defect;
 use octoarm_physics::{
-    Damping, EndCondition, Load, Material, Schedule, Settings, Sphere, StraightRod, SystemState,
-    Vec3, Workspace,
+    Damping, EndCondition, Load, Material, RodState, Schedule, Settings, Sphere, StraightRod,
+    SystemState, Vec3, Workspace,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
 /// Start of a pickled simulation: a tag, then the format version.
@@ -28,11 +37,14 @@ const PICKLE_FORMAT: u8 = 1;
 /// and numerical settings (SI units). Domains per rod: nodes (n + 1), elements (n), interior
 /// points (n − 1). Array getters return copies. Methods that concern one rod take `rod=` (a
 /// rod's name; default: the only rod, an error naming the rods when there are several).
-/// `pickle` and `copy.deepcopy` are exact: a restored copy steps to the same bits.
-#[pyclass(module = "octoarm")]
-#[derive(Clone)]
+/// `pickle` and `copy.deepcopy` are exact: a restored copy steps to the same bits. Thread-safe:
+/// calls from several threads are serialised (a reader waits for a running `step`).
+#[pyclass(module = "octoarm", frozen)]
 pub struct Simulation {
-    pub(crate) inner: phys::Simulation,
+    /// The physics simulation; lock it with `lock` (GIL attached) or `lock_detached`.
+    inner: Mutex<phys::Simulation>,
+    /// Names and element counts of the rods, in system order (fixed at construction).
+    rods: Vec<(String, usize)>,
 }
 
 fn boundary_from(s: &str) -> PyResult<(EndCondition, EndCondition)> {
@@ -61,14 +73,115 @@ fn ramp(ramp_time: f64) -> PyResult<Schedule> {
     }
 }
 
+/// The arrays of one rod's state given from Python, read and checked (shapes, finite entries,
+/// orthonormal directors) before the simulation is locked.
+#[derive(Default)]
+struct RodArrays {
+    position: Option<Vec<Vec3>>,
+    velocity: Option<Vec<Vec3>>,
+    director: Option<Vec<phys::Mat3>>,
+    omega: Option<Vec<Vec3>>,
+}
+
+impl RodArrays {
+    /// Read the given arrays of a rod of `n` elements.
+    fn read(
+        n: usize,
+        positions: Option<&Bound<'_, PyAny>>,
+        velocities: Option<&Bound<'_, PyAny>>,
+        directors: Option<&Bound<'_, PyAny>>,
+        angular_velocities: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let director = directors
+            .map(|a| read_mat3s(a, "directors", n))
+            .transpose()?;
+        for (j, q) in director.iter().flatten().enumerate() {
+            let defect = orthonormality_defect(q);
+            if defect > 1e-9 {
+                return Err(PyValueError::new_err(format!(
+                    "directors[{j}] is not orthonormal (|Q Qᵀ − I| = {defect:e}, allowed ≤ 1e-9)"
+                )));
+            }
+        }
+        Ok(Self {
+            position: positions
+                .map(|a| read_vec3s(a, "positions", n + 1))
+                .transpose()?,
+            velocity: velocities
+                .map(|a| read_vec3s(a, "velocities", n + 1))
+                .transpose()?,
+            director,
+            omega: angular_velocities
+                .map(|a| read_vec3s(a, "angular_velocities", n))
+                .transpose()?,
+        })
+    }
+
+    /// Write the arrays into rod `r` of `state` (checked by the system; nothing is written on
+    /// error).
+    fn write(self, sim: &phys::Simulation, state: &mut SystemState, r: usize) -> PyResult<()> {
+        let system = &sim.system;
+        let mut s = system.rod_state(state, r);
+        if let Some(v) = self.position {
+            s.position = v;
+        }
+        if let Some(v) = self.velocity {
+            s.velocity = v;
+        }
+        if let Some(v) = self.director {
+            s.director = v;
+        }
+        if let Some(v) = self.omega {
+            s.omega = v;
+        }
+        system.set_rod_state(state, r, &s).map_err(model_error)
+    }
+}
+
+/// After the state was written from outside: a fresh workspace, so that the stability guard
+/// takes its energy reference from the new state (as for a simulation built at it). The rest
+/// of the workspace is scratch that every step rewrites.
+fn state_written(sim: &mut phys::Simulation) {
+    sim.workspace = Workspace::new(&sim.system, &sim.state);
+}
+
 impl Simulation {
-    fn names(&self) -> Vec<&str> {
-        self.inner
+    /// Wrap a physics simulation.
+    pub(crate) fn from_inner(inner: phys::Simulation) -> Self {
+        let rods = inner
             .system
             .rods()
             .iter()
-            .map(|r| r.name.as_str())
-            .collect()
+            .map(|r| (r.name.clone(), r.n_elements()))
+            .collect();
+        Self {
+            inner: Mutex::new(inner),
+            rods,
+        }
+    }
+
+    /// Lock the physics simulation from a thread attached to Python (see `crate::lock`).
+    pub(crate) fn lock(&self, py: Python<'_>) -> MutexGuard<'_, phys::Simulation> {
+        lock(py, &self.inner)
+    }
+
+    /// Lock the physics simulation from inside `py.detach` (GIL released).
+    pub(crate) fn lock_detached(&self) -> MutexGuard<'_, phys::Simulation> {
+        lock_detached(&self.inner)
+    }
+
+    /// A copy of the physics simulation (taken under the lock).
+    pub(crate) fn snapshot(&self, py: Python<'_>) -> phys::Simulation {
+        self.lock(py).clone()
+    }
+
+    fn names(&self) -> Vec<&str> {
+        self.rods.iter().map(|(name, _)| name.as_str()).collect()
+    }
+
+    /// Number of elements of rod `r`.
+    pub(crate) fn rod_elements(&self, r: usize) -> usize {
+        self.rods[r].1
     }
 
     /// Index of the rod called `rod`, or of the only rod when `rod` is None.
@@ -104,64 +217,18 @@ impl Simulation {
         )))
     }
 
-    /// After the state was written from outside: a fresh workspace, so that the stability guard
-    /// takes its energy reference from the new state (as for a simulation built at it). The
-    /// rest of the workspace is scratch that every step rewrites.
-    fn state_written(&mut self) {
-        self.inner.workspace = Workspace::new(&self.inner.system, &self.inner.state);
-    }
-
     fn rod_state_dict<'py>(&self, py: Python<'py>, r: usize) -> PyResult<Bound<'py, PyDict>> {
-        let s = self.inner.system.rod_state(&self.inner.state, r);
-        let d = PyDict::new(py);
-        d.set_item("positions", vec3s(py, &s.position))?;
-        d.set_item("velocities", vec3s(py, &s.velocity))?;
-        d.set_item("directors", mat3s(py, &s.director))?;
-        d.set_item("angular_velocities", vec3s(py, &s.omega))?;
-        d.set_item("time", s.time)?;
-        Ok(d)
-    }
-
-    /// Write the given arrays of rod `r` into `state` (checked; nothing is written on error).
-    fn write_rod(
-        &self,
-        state: &mut SystemState,
-        r: usize,
-        positions: Option<&Bound<'_, PyAny>>,
-        velocities: Option<&Bound<'_, PyAny>>,
-        directors: Option<&Bound<'_, PyAny>>,
-        angular_velocities: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<()> {
-        let system = &self.inner.system;
-        let n = system.rod(r).n_elements();
-        let mut s = system.rod_state(state, r);
-        if let Some(a) = positions {
-            s.position = read_vec3s(a, "positions", n + 1)?;
-        }
-        if let Some(a) = velocities {
-            s.velocity = read_vec3s(a, "velocities", n + 1)?;
-        }
-        if let Some(a) = directors {
-            s.director = read_mat3s(a, "directors", n)?;
-            for (j, q) in s.director.iter().enumerate() {
-                let defect = orthonormality_defect(q);
-                if defect > 1e-9 {
-                    return Err(PyValueError::new_err(format!(
-                        "directors[{j}] is not orthonormal (|Q Qᵀ − I| = {defect:e}, allowed ≤ 1e-9)"
-                    )));
-                }
-            }
-        }
-        if let Some(a) = angular_velocities {
-            s.omega = read_vec3s(a, "angular_velocities", n)?;
-        }
-        system.set_rod_state(state, r, &s).map_err(model_error)
+        let s = {
+            let sim = self.lock(py);
+            sim.system.rod_state(&sim.state, r)
+        };
+        rod_state_to_dict(py, &s)
     }
 
     /// The state as bytes: tag, format, package version, then the postcard encoding of the
     /// physics simulation (system, state, actuation, workspace; every f64 as its 8 bytes).
-    fn to_bytes_vec(&self) -> PyResult<Vec<u8>> {
-        let payload = postcard::to_allocvec(&self.inner)
+    fn to_bytes_vec(&self, py: Python<'_>) -> PyResult<Vec<u8>> {
+        let payload = postcard::to_allocvec(&*self.lock(py))
             .map_err(|e| PyValueError::new_err(format!("cannot serialise the simulation: {e}")))?;
         let version = env!("CARGO_PKG_VERSION").as_bytes();
         let mut out = Vec::with_capacity(PICKLE_TAG.len() + 2 + version.len() + payload.len());
@@ -211,8 +278,19 @@ impl Simulation {
         if !sizes_fit {
             return Err(bad("its state does not fit its system".into()));
         }
-        Ok(Self { inner })
+        Ok(Self::from_inner(inner))
     }
+}
+
+/// One rod's state as the dict of copies `rod_state` returns.
+fn rod_state_to_dict<'py>(py: Python<'py>, s: &RodState) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("positions", vec3s(py, &s.position))?;
+    d.set_item("velocities", vec3s(py, &s.velocity))?;
+    d.set_item("directors", mat3s(py, &s.director))?;
+    d.set_item("angular_velocities", vec3s(py, &s.omega))?;
+    d.set_item("time", s.time)?;
+    Ok(d)
 }
 
 #[pymethods]
@@ -228,8 +306,7 @@ impl Simulation {
         n_elements = 100, length = 0.2, base_diameter = 0.02, tip_diameter = 0.0004,
         density = 700.0, youngs_modulus = 1.0e4, shear_modulus = 1.0e3,
         shear_coefficient = Material::DEFAULT_SHEAR_COEFFICIENT,
-        base_position = [0.0, 0.0, 0.0], direction = [1.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0],
-        rest_curvature = [0.0, 0.0, 0.0], boundary = None, dt = 1.0e-5,
+        base_position = None, direction = None, normal = None, rest_curvature = None, boundary = None, dt = 1.0e-5,
         energy_consistent = false, base = None, tip = None
     ))]
     #[pyo3(text_signature = "(n_elements=100, length=0.2, base_diameter=0.02, \
@@ -247,16 +324,20 @@ impl Simulation {
         youngs_modulus: f64,
         shear_modulus: f64,
         shear_coefficient: f64,
-        base_position: Vec3,
-        direction: Vec3,
-        normal: Vec3,
-        rest_curvature: Vec3,
+        base_position: Option<&Bound<'_, PyAny>>,
+        direction: Option<&Bound<'_, PyAny>>,
+        normal: Option<&Bound<'_, PyAny>>,
+        rest_curvature: Option<&Bound<'_, PyAny>>,
         boundary: Option<&str>,
         dt: f64,
         energy_consistent: bool,
         base: Option<&Bound<'_, PyAny>>,
         tip: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let base_position = read_vec3_or(base_position, "base_position", [0.0; 3])?;
+        let direction = read_vec3_or(direction, "direction", [1.0, 0.0, 0.0])?;
+        let normal = read_vec3_or(normal, "normal", [0.0, 1.0, 0.0])?;
+        let rest_curvature = read_vec3_or(rest_curvature, "rest_curvature", [0.0; 3])?;
         let rod = StraightRod {
             n_elements: check_count("n_elements", n_elements, 2)?,
             length,
@@ -290,9 +371,7 @@ impl Simulation {
             energy_consistent,
             ..Settings::with_dt(dt)
         };
-        Ok(Self {
-            inner: single_rod(&rod, b, t, settings)?,
-        })
+        Ok(Self::from_inner(single_rod(&rod, b, t, settings)?))
     }
 
     /// The paper's arm (`StraightRod::paper_arm`) with `n_elements` elements and time step `dt`.
@@ -306,7 +385,7 @@ impl Simulation {
             EndCondition::Free,
             Settings::with_dt(dt),
         )?;
-        Ok(Self { inner })
+        Ok(Self::from_inner(inner))
     }
 
     /// A system of rods (a sequence of `Rod`, names unique) joined by `joints` (a sequence of
@@ -327,28 +406,29 @@ impl Simulation {
             ..Settings::with_dt(dt)
         };
         let (system, state) = build_system(&rods, &joints, settings)?;
-        Ok(Self {
-            inner: phys::Simulation::from_parts(system, state),
-        })
+        Ok(Self::from_inner(phys::Simulation::from_parts(
+            system, state,
+        )))
     }
 
     /// An independent copy (system, state, actuation, counters and guard history).
-    fn copy(&self) -> Self {
-        self.clone()
+    fn copy(&self, py: Python<'_>) -> Self {
+        Self::from_inner(self.snapshot(py))
     }
 
-    fn __copy__(&self) -> Self {
-        self.clone()
+    fn __copy__(&self, py: Python<'_>) -> Self {
+        Self::from_inner(self.snapshot(py))
     }
 
-    fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Self {
-        self.clone()
+    fn __deepcopy__(&self, py: Python<'_>, _memo: &Bound<'_, PyAny>) -> Self {
+        Self::from_inner(self.snapshot(py))
     }
 
     /// The simulation as bytes (what pickle stores): restored by `Simulation.from_bytes` to the
     /// last bit, by the same octoarm version.
     fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
-        Ok(PyBytes::new(py, &self.to_bytes_vec()?))
+        let bytes = self.to_bytes_vec(py)?;
+        Ok(PyBytes::new(py, &bytes))
     }
 
     /// A simulation from `to_bytes` (or a pickle's payload). Refuses data of another version.
@@ -368,12 +448,13 @@ impl Simulation {
     }
 
     /// Advance `n` steps (GIL released), then run the stability guard on the final state.
-    /// Raises `InstabilityError` if the guard fires (the state is kept as it was then).
+    /// Raises `InstabilityError` if the guard fires (the state is kept as it was then). Other
+    /// threads calling this simulation meanwhile wait until the steps are done.
     #[pyo3(signature = (n = 1))]
-    fn step(&mut self, py: Python<'_>, n: i64) -> PyResult<()> {
+    fn step(&self, py: Python<'_>, n: i64) -> PyResult<()> {
         let n = check_count("n", n, 0)? as u64;
-        let sim = &mut self.inner;
-        py.detach(|| sim.run(n)).map_err(|e| step_error(py, e))
+        py.detach(|| self.lock_detached().run(n))
+            .map_err(|e| step_error(py, e))
     }
 
     /// Names of the rods, in system order.
@@ -385,7 +466,7 @@ impl Simulation {
     /// Number of rods.
     #[getter]
     fn n_rods(&self) -> usize {
-        self.inner.system.rods().len()
+        self.rods.len()
     }
 
     /// State of one rod as a dict of copies: positions [m] (n + 1, 3) and velocities [m/s]
@@ -405,7 +486,8 @@ impl Simulation {
     #[pyo3(signature = (name = None, *, positions = None, velocities = None, directors = None,
         angular_velocities = None))]
     fn set_rod_state(
-        &mut self,
+        &self,
+        py: Python<'_>,
         name: Option<&str>,
         positions: Option<&Bound<'_, PyAny>>,
         velocities: Option<&Bound<'_, PyAny>>,
@@ -413,25 +495,33 @@ impl Simulation {
         angular_velocities: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let r = self.rod_index(name)?;
-        let mut state = self.inner.state.clone();
-        self.write_rod(
-            &mut state,
-            r,
+        let arrays = RodArrays::read(
+            self.rod_elements(r),
             positions,
             velocities,
             directors,
             angular_velocities,
         )?;
-        self.inner.state = state;
-        self.state_written();
+        let mut sim = self.lock(py);
+        let mut state = sim.state.clone();
+        arrays.write(&sim, &mut state, r)?;
+        sim.state = state;
+        state_written(&mut sim);
         Ok(())
     }
 
     /// The state of every rod: {rod name: rod_state(name)}.
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        // One lock for all rods: a consistent snapshot.
+        let states: Vec<RodState> = {
+            let sim = self.lock(py);
+            (0..self.rods.len())
+                .map(|r| sim.system.rod_state(&sim.state, r))
+                .collect()
+        };
         let d = PyDict::new(py);
-        for (r, name) in self.names().into_iter().enumerate() {
-            d.set_item(name, self.rod_state_dict(py, r)?)?;
+        for ((name, _), s) in self.rods.iter().zip(&states) {
+            d.set_item(name, rod_state_to_dict(py, s)?)?;
         }
         Ok(d)
     }
@@ -439,8 +529,8 @@ impl Simulation {
     /// Overwrite the state of the rods named in `d` (as `state()` returns it: {rod name: {
     /// "positions": …, "velocities": …, "directors": …, "angular_velocities": …}}, any subset of
     /// rods and arrays; a "time" entry is ignored: time is the step count's). All or nothing.
-    fn set_state(&mut self, d: &Bound<'_, PyDict>) -> PyResult<()> {
-        let mut state = self.inner.state.clone();
+    fn set_state(&self, py: Python<'_>, d: &Bound<'_, PyDict>) -> PyResult<()> {
+        let mut writes = Vec::with_capacity(d.len());
         for (key, value) in d.iter() {
             let name: String = key.extract().map_err(|_| {
                 PyValueError::new_err(format!(
@@ -470,25 +560,31 @@ impl Simulation {
                     }
                 }
             }
-            self.write_rod(
-                &mut state,
-                r,
-                p.as_ref(),
-                v.as_ref(),
-                q.as_ref(),
-                w.as_ref(),
-            )?;
+            let n = self.rod_elements(r);
+            let arrays = RodArrays::read(n, p.as_ref(), v.as_ref(), q.as_ref(), w.as_ref())?;
+            writes.push((r, arrays));
         }
-        self.inner.state = state;
-        self.state_written();
+        let mut sim = self.lock(py);
+        let mut state = sim.state.clone();
+        for (r, arrays) in writes {
+            arrays.write(&sim, &mut state, r)?;
+        }
+        sim.state = state;
+        state_written(&mut sim);
         Ok(())
     }
 
     /// Add uniform gravity g [m/s²] (lab frame) on a rod.
     #[pyo3(signature = (acceleration, rod = None))]
-    fn add_gravity(&mut self, acceleration: Vec3, rod: Option<&str>) -> PyResult<()> {
+    fn add_gravity(
+        &self,
+        py: Python<'_>,
+        acceleration: &Bound<'_, PyAny>,
+        rod: Option<&str>,
+    ) -> PyResult<()> {
+        let acceleration = read_vec3(acceleration, "acceleration")?;
         let r = self.rod_index(rod)?;
-        self.inner
+        self.lock(py)
             .system
             .add_load(r, Load::Gravity { acceleration }, Schedule::Constant)
             .map_err(model_error)
@@ -498,14 +594,16 @@ impl Simulation {
     /// over `ramp_time` [s] (0: at once).
     #[pyo3(signature = (force, node = None, ramp_time = 0.0, rod = None))]
     fn add_node_force(
-        &mut self,
-        force: Vec3,
+        &self,
+        py: Python<'_>,
+        force: &Bound<'_, PyAny>,
         node: Option<i64>,
         ramp_time: f64,
         rod: Option<&str>,
     ) -> PyResult<()> {
+        let force = read_vec3(force, "force")?;
         let r = self.rod_index(rod)?;
-        let n = self.inner.system.rod(r).n_elements();
+        let n = self.rod_elements(r);
         let node = match node {
             None => n,
             Some(i) if (0..=n as i64).contains(&i) => i as usize,
@@ -515,17 +613,24 @@ impl Simulation {
                 )))
             }
         };
-        self.inner
+        let schedule = ramp(ramp_time)?;
+        self.lock(py)
             .system
-            .add_load(r, Load::NodeForce { node, force }, ramp(ramp_time)?)
+            .add_load(r, Load::NodeForce { node, force }, schedule)
             .map_err(model_error)
     }
 
     /// Add a distributed force per rest length [N/m] (lab) on a rod.
     #[pyo3(signature = (force_per_length, rod = None))]
-    fn add_uniform_force(&mut self, force_per_length: Vec3, rod: Option<&str>) -> PyResult<()> {
+    fn add_uniform_force(
+        &self,
+        py: Python<'_>,
+        force_per_length: &Bound<'_, PyAny>,
+        rod: Option<&str>,
+    ) -> PyResult<()> {
+        let force_per_length = read_vec3(force_per_length, "force_per_length")?;
         let r = self.rod_index(rod)?;
-        self.inner
+        self.lock(py)
             .system
             .add_load(
                 r,
@@ -540,15 +645,17 @@ impl Simulation {
     /// `follower=True`.
     #[pyo3(signature = (couple, element = None, ramp_time = 0.0, follower = false, rod = None))]
     fn add_element_couple(
-        &mut self,
-        couple: Vec3,
+        &self,
+        py: Python<'_>,
+        couple: &Bound<'_, PyAny>,
         element: Option<i64>,
         ramp_time: f64,
         follower: bool,
         rod: Option<&str>,
     ) -> PyResult<()> {
+        let couple = read_vec3(couple, "couple")?;
         let r = self.rod_index(rod)?;
-        let n = self.inner.system.rod(r).n_elements();
+        let n = self.rod_elements(r);
         let element = match element {
             None => n - 1,
             Some(i) if (0..n as i64).contains(&i) => i as usize,
@@ -564,9 +671,10 @@ impl Simulation {
         } else {
             Load::ElementCouple { element, couple }
         };
-        self.inner
+        let schedule = ramp(ramp_time)?;
+        self.lock(py)
             .system
-            .add_load(r, load, ramp(ramp_time)?)
+            .add_load(r, load, schedule)
             .map_err(model_error)
     }
 
@@ -574,33 +682,44 @@ impl Simulation {
     /// material-frame.
     #[pyo3(signature = (couple_per_length, follower = false, rod = None))]
     fn add_uniform_couple(
-        &mut self,
-        couple_per_length: Vec3,
+        &self,
+        py: Python<'_>,
+        couple_per_length: &Bound<'_, PyAny>,
         follower: bool,
         rod: Option<&str>,
     ) -> PyResult<()> {
+        let couple_per_length = read_vec3(couple_per_length, "couple_per_length")?;
         let r = self.rod_index(rod)?;
         let load = if follower {
             Load::FollowerCouple { couple_per_length }
         } else {
             Load::UniformCouple { couple_per_length }
         };
-        self.inner
+        self.lock(py)
             .system
             .add_load(r, load, Schedule::Constant)
             .map_err(model_error)
     }
 
     /// Remove every external load of every rod.
-    fn clear_loads(&mut self) {
-        self.inner.system.clear_loads();
+    fn clear_loads(&self, py: Python<'_>) {
+        self.lock(py).system.clear_loads();
     }
 
     /// Add a rigid sphere obstacle (every rod touches it): centre [m] at t = 0, radius [m] > 0,
     /// velocity [m/s].
-    #[pyo3(signature = (center, radius, velocity = [0.0, 0.0, 0.0]))]
-    fn add_obstacle(&mut self, center: Vec3, radius: f64, velocity: Vec3) -> PyResult<()> {
-        self.inner
+    #[pyo3(signature = (center, radius, velocity = None),
+        text_signature = "(self, center, radius, velocity=(0.0, 0.0, 0.0))")]
+    fn add_obstacle(
+        &self,
+        py: Python<'_>,
+        center: &Bound<'_, PyAny>,
+        radius: f64,
+        velocity: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let center = read_vec3(center, "center")?;
+        let velocity = read_vec3_or(velocity, "velocity", [0.0; 3])?;
+        self.lock(py)
             .add_obstacle(Sphere {
                 center,
                 radius,
@@ -610,16 +729,22 @@ impl Simulation {
     }
 
     /// Remove every obstacle.
-    fn clear_obstacles(&mut self) {
-        self.inner.system.clear_obstacles();
+    fn clear_obstacles(&self, py: Python<'_>) {
+        self.lock(py).system.clear_obstacles();
     }
 
     /// Set a rod's damping: mass-proportional `rate` ν_d [1/s] and the paper's per-length
     /// `gamma` [kg/(m s)], both ≥ 0.
     #[pyo3(signature = (rate = 0.0, gamma = 0.0, rod = None))]
-    fn set_damping(&mut self, rate: f64, gamma: f64, rod: Option<&str>) -> PyResult<()> {
+    fn set_damping(
+        &self,
+        py: Python<'_>,
+        rate: f64,
+        gamma: f64,
+        rod: Option<&str>,
+    ) -> PyResult<()> {
         let r = self.rod_index(rod)?;
-        self.inner
+        self.lock(py)
             .system
             .set_damping(
                 r,
@@ -636,16 +761,17 @@ impl Simulation {
     /// interior point, material frame.
     #[pyo3(signature = (sigma, kappa, rod = None))]
     fn set_rest_strains(
-        &mut self,
+        &self,
+        py: Python<'_>,
         sigma: &Bound<'_, PyAny>,
         kappa: &Bound<'_, PyAny>,
         rod: Option<&str>,
     ) -> PyResult<()> {
         let r = self.rod_index(rod)?;
-        let n = self.inner.system.rod(r).n_elements();
+        let n = self.rod_elements(r);
         let s = read_vec3s(sigma, "sigma", n)?;
         let k = read_vec3s(kappa, "kappa", n - 1)?;
-        self.inner
+        self.lock(py)
             .system
             .set_rest_strains(r, &s, &k)
             .map_err(model_error)
@@ -655,55 +781,65 @@ impl Simulation {
     #[pyo3(signature = (rod = None))]
     fn rest_strains<'py>(&self, py: Python<'py>, rod: Option<&str>) -> PyResult<ArrayPair<'py>> {
         let r = self.rod_index(rod)?;
-        let (s, k) = self.inner.system.rest_strains(r);
-        Ok((vec3s(py, s), vec3s(py, k)))
+        let (s, k) = {
+            let sim = self.lock(py);
+            let (s, k) = sim.system.rest_strains(r);
+            (s.to_vec(), k.to_vec())
+        };
+        Ok((vec3s(py, &s), vec3s(py, &k)))
     }
 
     /// Number of elements n of the rod (one-rod shortcut).
     #[getter]
     fn n_elements(&self) -> PyResult<usize> {
         let r = self.only_rod("n_elements")?;
-        Ok(self.inner.system.rod(r).n_elements())
+        Ok(self.rod_elements(r))
     }
 
     /// Time step [s].
     #[getter]
-    fn dt(&self) -> f64 {
-        self.inner.settings().dt
+    fn dt(&self, py: Python<'_>) -> f64 {
+        self.lock(py).settings().dt
     }
 
     /// Largest stable time step estimate 2/ω_max of the system [s] (rods and joints).
     #[getter]
-    fn stable_dt(&self) -> f64 {
-        self.inner.system.stable_dt()
+    fn stable_dt(&self, py: Python<'_>) -> f64 {
+        self.lock(py).system.stable_dt()
     }
 
     /// Simulated time [s].
     #[getter]
-    fn time(&self) -> f64 {
-        self.inner.time()
+    fn time(&self, py: Python<'_>) -> f64 {
+        self.lock(py).time()
     }
 
     /// Steps taken.
     #[getter]
-    fn steps(&self) -> u64 {
-        self.inner.steps()
+    fn steps(&self, py: Python<'_>) -> u64 {
+        self.lock(py).steps()
     }
 
     /// Node positions [m], (n + 1, 3), lab frame (copy; one-rod shortcut).
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let r = self.only_rod("positions")?;
-        let nodes = self.inner.system.rod(r).nodes();
-        Ok(vec3s(py, &self.inner.state.position.to_vec(nodes)))
+        let v = {
+            let sim = self.lock(py);
+            sim.state.position.to_vec(sim.system.rod(r).nodes())
+        };
+        Ok(vec3s(py, &v))
     }
 
     /// Node velocities [m/s], (n + 1, 3), lab frame (copy; one-rod shortcut).
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let r = self.only_rod("velocities")?;
-        let nodes = self.inner.system.rod(r).nodes();
-        Ok(vec3s(py, &self.inner.state.velocity.to_vec(nodes)))
+        let v = {
+            let sim = self.lock(py);
+            sim.state.velocity.to_vec(sim.system.rod(r).nodes())
+        };
+        Ok(vec3s(py, &v))
     }
 
     /// Element directors Q, (n, 3, 3); row i is d_(i+1) in lab components (copy; one-rod
@@ -711,50 +847,63 @@ impl Simulation {
     #[getter]
     fn directors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let r = self.only_rod("directors")?;
-        let elements = self.inner.system.rod(r).elements();
-        Ok(mat3s(py, &self.inner.state.director.to_vec(elements)))
+        let v = {
+            let sim = self.lock(py);
+            sim.state.director.to_vec(sim.system.rod(r).elements())
+        };
+        Ok(mat3s(py, &v))
     }
 
     /// Element angular velocities ω [rad/s], (n, 3), material frame (copy; one-rod shortcut).
     #[getter]
     fn angular_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let r = self.only_rod("angular_velocities")?;
-        let elements = self.inner.system.rod(r).elements();
-        Ok(vec3s(py, &self.inner.state.omega.to_vec(elements)))
+        let v = {
+            let sim = self.lock(py);
+            sim.state.omega.to_vec(sim.system.rod(r).elements())
+        };
+        Ok(vec3s(py, &v))
     }
 
     /// Tip (last node) position [m], (3,) (one-rod shortcut).
     #[getter]
     fn tip<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let r = self.only_rod("tip")?;
-        let last = self.inner.system.rod(r).nodes().end - 1;
-        Ok(scalars(py, &self.inner.state.position.get(last)))
+        let tip = {
+            let sim = self.lock(py);
+            sim.state.position.get(sim.system.rod(r).nodes().end - 1)
+        };
+        Ok(scalars(py, &tip))
     }
 
     /// Rest shear/stretch strains in force σ° (n, 3), material frame (copy; one-rod shortcut).
     #[getter]
     fn rest_sigma<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let r = self.only_rod("rest_sigma")?;
-        Ok(vec3s(py, self.inner.system.rest_strains(r).0))
+        let v = self.lock(py).system.rest_strains(r).0.to_vec();
+        Ok(vec3s(py, &v))
     }
 
     /// Rest curvatures in force κ° [1/m] (n − 1, 3), material frame (copy; one-rod shortcut).
     #[getter]
     fn rest_kappa<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let r = self.only_rod("rest_kappa")?;
-        Ok(vec3s(py, self.inner.system.rest_strains(r).1))
+        let v = self.lock(py).system.rest_strains(r).1.to_vec();
+        Ok(vec3s(py, &v))
     }
 
     /// A rod's current strains: (σ (n, 3) dimensionless, κ (n − 1, 3) [1/m]), material frame.
     #[pyo3(signature = (rod = None))]
     fn strains<'py>(&self, py: Python<'py>, rod: Option<&str>) -> PyResult<ArrayPair<'py>> {
         let r = self.rod_index(rod)?;
-        let model = &self.inner.system.rod(r).model;
-        let n = model.n_elements;
+        let n = self.rod_elements(r);
         let mut sigma = vec![[0.0; 3]; n];
         let mut kappa = vec![[0.0; 3]; n - 1];
-        let view = self.inner.system.view(&self.inner.state, r);
-        phys::strains(model, &view, &mut sigma, &mut kappa);
+        {
+            let sim = self.lock(py);
+            let view = sim.system.view(&sim.state, r);
+            phys::strains(&sim.system.rod(r).model, &view, &mut sigma, &mut kappa);
+        }
         Ok((vec3s(py, &sigma), vec3s(py, &kappa)))
     }
 
@@ -764,7 +913,11 @@ impl Simulation {
     #[pyo3(signature = (rod = None))]
     fn energies<'py>(&self, py: Python<'py>, rod: Option<&str>) -> PyResult<Bound<'py, PyDict>> {
         let r = self.rod_index(rod)?;
-        let e = phys::rod_energies(&self.inner.system, &self.inner.state, r);
+        let (e, work, dissipated) = {
+            let sim = self.lock(py);
+            let e = phys::rod_energies(&sim.system, &sim.state, r);
+            (e, sim.state.work[r], sim.state.dissipated[r])
+        };
         let d = PyDict::new(py);
         d.set_item("translational", e.translational)?;
         d.set_item("rotational", e.rotational)?;
@@ -773,8 +926,8 @@ impl Simulation {
         d.set_item("kinetic", e.kinetic())?;
         d.set_item("potential", e.potential())?;
         d.set_item("total", e.total())?;
-        d.set_item("external_work", self.inner.state.work[r])?;
-        d.set_item("dissipated", self.inner.state.dissipated[r])?;
+        d.set_item("external_work", work)?;
+        d.set_item("dissipated", dissipated)?;
         Ok(d)
     }
 
@@ -783,7 +936,8 @@ impl Simulation {
     #[pyo3(signature = (rod = None))]
     fn model<'py>(&self, py: Python<'py>, rod: Option<&str>) -> PyResult<Bound<'py, PyDict>> {
         let r = self.rod_index(rod)?;
-        let m = &self.inner.system.rod(r).model;
+        // The model is shared (Arc) and never changes: read it after the lock.
+        let m = Arc::clone(&self.lock(py).system.rod(r).model);
         let d = PyDict::new(py);
         d.set_item("rest_length", scalars(py, &m.rest_length))?;
         d.set_item("radius", scalars(py, &m.radius))?;
@@ -793,19 +947,17 @@ impl Simulation {
         Ok(d)
     }
 
-    fn __repr__(&self) -> String {
-        let sys = &self.inner.system;
-        let what = if sys.rods().len() == 1 {
-            format!("n_elements={}", sys.rod(0).n_elements())
+    fn __repr__(&self, py: Python<'_>) -> String {
+        let what = if self.rods.len() == 1 {
+            format!("n_elements={}", self.rods[0].1)
         } else {
             format!("rods=[{}]", quoted(&self.names()))
         };
-        format!(
-            "Simulation({what}, dt={:e}, time={}, steps={})",
-            self.inner.settings().dt,
-            self.inner.time(),
-            self.inner.steps()
-        )
+        let (dt, time, steps) = {
+            let sim = self.lock(py);
+            (sim.settings().dt, sim.time(), sim.steps())
+        };
+        format!("Simulation({what}, dt={dt:e}, time={time}, steps={steps})")
     }
 }
 
@@ -820,7 +972,7 @@ pub fn simulation_from_bytes(data: &[u8]) -> PyResult<Simulation> {
 /// one call, GIL released. Used by the speed benchmark to compare with stepping from Python.
 #[pyfunction]
 pub fn rust_step_rate(py: Python<'_>, sim: &Simulation, steps: u64) -> PyResult<f64> {
-    let mut s = sim.inner.clone();
+    let mut s = sim.snapshot(py);
     let t0 = Instant::now();
     py.detach(|| s.run(steps)).map_err(|e| step_error(py, e))?;
     Ok(steps as f64 / t0.elapsed().as_secs_f64())

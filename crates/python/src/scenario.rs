@@ -7,7 +7,9 @@ use crate::step_error;
 use octoarm_app::output::OutputDir;
 use octoarm_app::pipeline::{self, Failure, RunOptions};
 use octoarm_app::scenario::Scenario;
-use pyo3::exceptions::{PyOSError, PyRuntimeError, PyUserWarning, PyValueError};
+use pyo3::exceptions::{
+    PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyUserWarning, PyValueError,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::ffi::CString;
@@ -54,6 +56,7 @@ pub fn run_scenario<'py>(
             let opts = RunOptions {
                 progress: None,
                 figures: None,
+                stop: None,
             };
             pipeline::run(&scn, prepared, out, &opts)
         })
@@ -62,6 +65,7 @@ pub fn run_scenario<'py>(
         None => "completed",
         Some(Failure::Unstable(_)) => "unstable",
         Some(Failure::Control(_)) => "failed",
+        Some(Failure::Interrupted(_)) => "interrupted",
     };
     let d = PyDict::new(py);
     d.set_item("out_dir", &report.out_dir)?;
@@ -85,6 +89,10 @@ pub fn run_scenario<'py>(
         None => return Ok(d),
         Some(Failure::Unstable(e)) => step_error(py, e),
         Some(Failure::Control(msg)) => PyRuntimeError::new_err(format!("controller: {msg}")),
+        // Not reached: no stop flag is passed (`RunOptions::stop` is None).
+        Some(Failure::Interrupted(sig)) => {
+            PyKeyboardInterrupt::new_err(format!("interrupted by signal {sig}"))
+        }
     };
     err.value(py).setattr("report", d)?;
     Err(err)

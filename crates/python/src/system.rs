@@ -5,7 +5,7 @@
 //! `Simulation.from_rods`). These classes only hold and check parameters; nothing is simulated
 //! here.
 
-use crate::arrays::{read_vec3s, read_vector, scalars, vec3s};
+use crate::arrays::{read_vec3, read_vec3_or, read_vec3s, read_vector, scalars, vec3s};
 use crate::model_error;
 use numpy::{PyArray1, PyArray2};
 use octoarm_physics as phys;
@@ -97,7 +97,8 @@ impl Motion {
     /// A motion turning the end at the constant angular velocity `rate` [rad/s] (lab frame)
     /// from t = 0 until `until` [s], then holding it.
     #[staticmethod]
-    fn constant_rotation(rate: Vec3, until: f64) -> PyResult<Self> {
+    fn constant_rotation(rate: &Bound<'_, PyAny>, until: f64) -> PyResult<Self> {
+        let rate = read_vec3(rate, "rate")?;
         let inner = phys::Motion::constant_rotation(rate, until);
         inner.validate().map_err(model_error)?;
         Ok(Self { inner })
@@ -179,8 +180,7 @@ impl Rod {
         name = "rod", n_elements = 100, length = 0.2, base_diameter = 0.02,
         tip_diameter = 0.0004, density = 700.0, youngs_modulus = 1.0e4, shear_modulus = 1.0e3,
         shear_coefficient = Material::DEFAULT_SHEAR_COEFFICIENT,
-        base_position = [0.0, 0.0, 0.0], direction = [1.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0],
-        rest_curvature = [0.0, 0.0, 0.0], base = None, tip = None
+        base_position = None, direction = None, normal = None, rest_curvature = None, base = None, tip = None
     ))]
     #[pyo3(
         text_signature = "(name='rod', n_elements=100, length=0.2, base_diameter=0.02, \
@@ -200,13 +200,17 @@ impl Rod {
         youngs_modulus: f64,
         shear_modulus: f64,
         shear_coefficient: f64,
-        base_position: Vec3,
-        direction: Vec3,
-        normal: Vec3,
-        rest_curvature: Vec3,
+        base_position: Option<&Bound<'_, PyAny>>,
+        direction: Option<&Bound<'_, PyAny>>,
+        normal: Option<&Bound<'_, PyAny>>,
+        rest_curvature: Option<&Bound<'_, PyAny>>,
         base: Option<&Bound<'_, PyAny>>,
         tip: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let base_position = read_vec3_or(base_position, "base_position", [0.0; 3])?;
+        let direction = read_vec3_or(direction, "direction", [1.0, 0.0, 0.0])?;
+        let normal = read_vec3_or(normal, "normal", [0.0, 1.0, 0.0])?;
+        let rest_curvature = read_vec3_or(rest_curvature, "rest_curvature", [0.0; 3])?;
         if name.is_empty() {
             return Err(PyValueError::new_err(
                 "name = \"\" is not allowed: a rod needs a name",
@@ -409,12 +413,13 @@ impl Joint {
         kind: &str,
         first: &str,
         second: &str,
-        axis: Option<Vec3>,
+        axis: Option<&Bound<'_, PyAny>>,
         stiffness: Option<f64>,
         damping: Option<f64>,
         rotational_stiffness: Option<f64>,
         rotational_damping: Option<f64>,
     ) -> PyResult<Self> {
+        let axis = axis.map(|a| read_vec3(a, "axis")).transpose()?;
         match (kind, axis) {
             ("hinge", None) => {
                 return Err(PyValueError::new_err(

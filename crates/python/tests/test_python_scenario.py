@@ -123,9 +123,11 @@ def test_output_directory_problem_is_os_error(tmp_path):
     occupied = tmp_path / "occupied"
     occupied.mkdir()
     (occupied / "precious.txt").write_text("not an octoarm output")
-    with pytest.raises(OSError, match="not an octoarm output directory"):
+    # The app refuses a folder it did not write, naming what is in the way (issue 16, item 1).
+    with pytest.raises(OSError, match="not an octoarm output") as info:
         octoarm.run_scenario(str(ROOT / "scenarios" / "arm_tip_force.toml"), str(occupied),
                              duration=0.01)
+    assert "precious.txt" in str(info.value)
     assert (occupied / "precious.txt").read_text() == "not an octoarm output"
 
 

@@ -15,8 +15,13 @@ because stepping rewrites it with the GIL released.
 * :class:`OfflineSolver`, :class:`Design`, :class:`EnergyShapingController`: the controller.
 * :func:`run_scenario`: ``octoarm run`` on a scenario file, passive or controlled.
 
+Array arguments take any real dtype (converted to float64) of exactly the stated shape, with
+finite entries. Objects can be shared between threads: calls are serialised (a reader waits for
+a running ``step``, with the GIL released). Type stubs ship with the package.
+
 Importing this package registers the Gymnasium environment ``octoarm/ArmReach-v0``
-(see :mod:`octoarm.env`).
+(see :mod:`octoarm.env`); :mod:`octoarm.sb3` (needs Stable-Baselines3) has ``RustVecEnv``, an
+SB3 ``VecEnv`` over the Rust vector environment.
 """
 
 from ._octoarm import (  # noqa: F401

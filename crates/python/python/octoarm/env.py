@@ -7,7 +7,10 @@ by default), clamped at the origin along +x, bending in the x-y plane.
   into ``n_segments`` equal segments; segment s gets the in-plane rest curvature
   ``a_s * max_curvature`` (20 1/m by default), like a muscle that shortens one side of the arm.
   An action holds for one **control period of 10 ms** (200 steps of dt = 50 us): one environment
-  step = 10 ms of simulated time.
+  step = 10 ms of simulated time. Actions outside [-1, 1] are clipped. An action must have
+  exactly the action space's shape (never reshaped) and finite entries; any real dtype is
+  converted to float64. Otherwise ``ValueError`` names the expected shape, or the entry that is
+  NaN or infinite.
 * **Observation** (float32, ``4 (n + 1) + 2 + 2 n_segments`` = 94 values by default), every
   component dimensionless, with finite bounds (``observation_space``) that it never leaves:
 
@@ -32,29 +35,52 @@ by default), clamped at the origin along +x, bending in the x-y plane.
 * **Reward**: ``-|tip - target| [m] - effort_weight * mean(a**2)`` (effort_weight = 0.01).
 * **Episode**: 200 steps (2 s), truncated by Gymnasium's TimeLimit; never terminated.
   Targets are drawn from the seeded ``np_random`` at radius 0.08-0.18 m, angle +-60 deg;
-  ``reset(options={"target": [x, y]})`` sets one [m] (each coordinate within +-1.5 L0 = 0.3 m).
+  ``reset(options={"target": [x, y]})`` sets one [m] (shape (2,), each coordinate within
+  +-1.5 L0 = 0.3 m) for that reset only.
+* **Instability**: if the stability guard stops the arm during a step, the episode ends:
+  ``truncated = True`` and ``info["unstable"]`` holds the guard's message; the observation,
+  reward and ``info["tip_distance"]`` are those of the arm at the start of that step (the last
+  state the guard passed). Reset before stepping again.
 
 ``ArmReachVectorEnv``: ``num_envs`` arms stepped in parallel by Rust threads (rayon,
 ``num_threads``; default all cores), with Gymnasium's next-step autoreset. The physics of
 every arm is sequential and independent, so results do not depend on the thread count.
+
+It gives the same results as Gymnasium's ``sync`` vectorisation of ``ArmReachEnv``
+(``gym.make_vec("octoarm/ArmReach-v0", n, vectorization_mode="sync")``), bit for bit:
+``reset(seed=s)`` seeds arm i's generator with ``s + i`` (a list of seeds gives one per arm),
+as ``SyncVectorEnv`` seeds sub-environment i, and every target of arm i (first and autoreset
+ones) is drawn from arm i's generator exactly as ``ArmReachEnv`` draws it. So the same seed
+gives the same targets, observations, rewards, ``truncated`` flags and infos
+(``tip_distance`` with its ``_tip_distance`` mask, ``unstable`` with ``_unstable``) in both
+modes. ``reset(options=...)`` takes ``"target"``: shape (2,) for every arm (as ``sync`` passes
+the options to every sub-environment) or (num_envs, 2), one per arm; and ``"reset_mask"``
+(bool, (num_envs,)): reset only those arms. One unstable arm ends only its own episode
+(``truncated[i]``, ``info["unstable"][i]``); the others continue.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Sequence
 
 import gymnasium as gym
 import numpy as np
+import numpy.typing as npt
 from gymnasium import spaces
+from gymnasium.utils import seeding
 from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ._octoarm import ArmBatch
+from ._octoarm import ArmBatch, Simulation
 
 EPISODE_STEPS = 200
 
+Array = npt.NDArray[Any]
+FloatArray = npt.NDArray[np.float64]
+ObsArray = npt.NDArray[np.float32]
 
-def _sample_targets(rng: np.random.Generator, k: int) -> np.ndarray:
+
+def _sample_targets(rng: np.random.Generator, k: int) -> FloatArray:
     radius = rng.uniform(0.08, 0.18, size=k)
     angle = rng.uniform(-np.pi / 3, np.pi / 3, size=k)
     return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
@@ -67,55 +93,123 @@ def _spaces(batch: ArmBatch) -> tuple[spaces.Box, spaces.Box]:
     return obs, act
 
 
-class ArmReachEnv(gym.Env):
+def _no_render(owner: str, render_mode: str | None) -> None:
+    # TypeError, as for any unsupported keyword argument: Stable-Baselines3's make_vec_env tries
+    # render_mode="rgb_array" and falls back to no render_mode on TypeError only.
+    if render_mode is not None:
+        raise TypeError(
+            f"{owner}() got an unsupported keyword argument render_mode={render_mode!r}: "
+            "octoarm's environments do not render yet (metadata['render_modes'] is empty); "
+            "use render_mode=None"
+        )
+
+
+def _shape(shape: Sequence[int]) -> str:
+    return f"({shape[0]},)" if len(shape) == 1 else "(" + ", ".join(map(str, shape)) + ")"
+
+
+def _real_array(value: Any, name: str, shape: tuple[int, ...]) -> FloatArray:
+    """``value`` as a float64 array of exactly ``shape`` with finite entries (never reshaped);
+    any real dtype is converted. ``ValueError`` names ``name`` and the expected shape, or the
+    entry that is not finite."""
+    try:
+        a = np.asarray(value)
+    except Exception as e:  # e.g. ragged nested lists
+        raise ValueError(f"{name} is not an array of numbers: {e}") from None
+    if a.dtype.kind not in "fiuO":
+        raise ValueError(
+            f"{name} has dtype {a.dtype}; expected real numbers (any float or integer dtype, "
+            "converted to float64)"
+        )
+    try:
+        a = a.astype(np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name} is not an array of numbers: {e}") from None
+    if a.shape != shape:
+        raise ValueError(f"{name} has shape {_shape(a.shape)}, expected {_shape(shape)}")
+    bad = np.argwhere(~np.isfinite(a))
+    if bad.size:
+        index = tuple(int(i) for i in bad[0])
+        v = float(a[index])
+        text = "NaN" if np.isnan(v) else ("inf" if v > 0 else "-inf")
+        raise ValueError(
+            f"{name} must be finite: entry [{', '.join(map(str, index))}] is {text}"
+        )
+    return a
+
+
+def _check_options(options: dict[str, Any] | None, allowed: Sequence[str]) -> dict[str, Any]:
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise TypeError(f"options must be a dict or None, not {type(options).__name__}")
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise ValueError(
+            f"options has unknown key(s) {', '.join(map(repr, unknown))}; allowed: "
+            + ", ".join(map(repr, allowed))
+        )
+    return options
+
+
+class ArmReachEnv(gym.Env[Array, Array]):
     """One planar arm reaching a target; see the module docstring for spaces and reward.
 
     Keyword arguments are those of :class:`octoarm.ArmBatch` (``n_elements``, ``n_segments``,
     ``max_curvature``, ``control_period``, ``dt``, ``damping_rate``, ``effort_weight``,
-    ``tip_diameter``, ``activation_time``).
+    ``tip_diameter``, ``activation_time``); anything else, including a ``render_mode`` other
+    than None (no rendering yet), raises ``TypeError``.
 
     Observation: node x, y / L0 in [-1.5, 1.5]; node vx, vy / (10 L0/s) in [-5, 5]; target x, y
     / L0 in [-1.5, 1.5]; lagged rest curvature per segment / max_curvature in [-1, 1]; last
     action in [-1, 1] (L0 = 0.2 m; details in the module docstring).
     """
 
-    metadata = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": []}
 
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode = {render_mode!r} is not supported; use None")
+        _no_render("ArmReachEnv", render_mode)
         self._batch = ArmBatch(n_envs=1, num_threads=1, **config)
         self.observation_space, self.action_space = _spaces(self._batch)
-        self.control_period = self._batch.control_period
-        self.target = np.zeros(2)
+        self.control_period: float = self._batch.control_period
+        self.target: FloatArray = np.zeros(2)
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[ObsArray, dict[str, Any]]:
         super().reset(seed=seed)
-        if options and "target" in options:
-            self.target = np.asarray(options["target"], dtype=np.float64).reshape(2)
+        options = _check_options(options, ["target"])
+        if "target" in options:
+            self.target = _real_array(options["target"], "target", (2,))
         else:
             self.target = _sample_targets(self.np_random, 1)[0]
-        obs = self._batch.reset(self.target.reshape(1, 2))
+        obs = self._batch.reset(self.target[None, :])
         return obs[0], {}
 
-    def step(self, action):
-        a = np.asarray(action, dtype=np.float64).reshape(1, -1)
-        obs, reward, distance = self._batch.step(a)
-        return obs[0], float(reward[0]), False, False, {"tip_distance": float(distance[0])}
+    def step(self, action: Any) -> tuple[ObsArray, float, bool, bool, dict[str, Any]]:
+        a = _real_array(action, "action", (self._batch.action_dim,))
+        obs, reward, distance, failures = self._batch.step(a[None, :])
+        info: dict[str, Any] = {"tip_distance": float(distance[0])}
+        unstable = failures[0] is not None
+        if unstable:
+            info["unstable"] = str(failures[0])
+        return obs[0], float(reward[0]), False, unstable, info
 
-    def simulation(self):
+    def simulation(self) -> Simulation:
         """A copy of the arm as an :class:`octoarm.Simulation`."""
         return self._batch.simulation(0)
 
 
-class ArmReachVectorEnv(VectorEnv):
+class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
     """``num_envs`` arms stepped in parallel in Rust; next-step autoreset (Gymnasium >= 1.0).
 
     Same spaces, observation and reward per arm as :class:`ArmReachEnv`; observations are
-    (num_envs, obs_dim) float32.
+    (num_envs, obs_dim) float32, actions (num_envs, n_segments) (exactly that shape, finite,
+    any real dtype). Same seeds give the same results as the ``sync`` vectorisation of
+    :class:`ArmReachEnv` (see the module docstring), whatever ``num_threads``.
     """
 
-    metadata = {"render_modes": [], "autoreset_mode": "NextStep"}
+    metadata: dict[str, Any] = {"render_modes": [], "autoreset_mode": "NextStep"}
 
     def __init__(
         self,
@@ -125,8 +219,7 @@ class ArmReachVectorEnv(VectorEnv):
         render_mode: str | None = None,
         **config: Any,
     ) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode = {render_mode!r} is not supported; use None")
+        _no_render("ArmReachVectorEnv", render_mode)
         if max_episode_steps < 1:
             raise ValueError(
                 f"max_episode_steps = {max_episode_steps} is outside the allowed range [1, inf)"
@@ -143,31 +236,135 @@ class ArmReachVectorEnv(VectorEnv):
         self.single_observation_space, self.single_action_space = _spaces(self._batch)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
-        self.control_period = self._batch.control_period
-        self.targets = np.zeros((num_envs, 2))
+        self.control_period: float = self._batch.control_period
+        self.targets: FloatArray = np.zeros((num_envs, 2))
         self._elapsed = np.zeros(num_envs, dtype=np.int64)
         self._autoreset = np.zeros(num_envs, dtype=bool)
-        self._np_random = None
+        # One generator per arm, as each sub-environment of SyncVectorEnv has its own.
+        self._arm_rngs: list[np.random.Generator | None] = [None] * num_envs
+        self._obs: ObsArray | None = None
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
-        self.targets = _sample_targets(self.np_random, self.num_envs)
-        self._elapsed[:] = 0
-        self._autoreset[:] = False
-        return self._batch.reset(self.targets), {}
+    # -- shared by reset, the autoreset and the Stable-Baselines3 adapter --------------------
 
-    def step(self, actions):
-        a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
-        obs, reward, distance = self._batch.step(a)
-        self._elapsed += 1
-        done = self._autoreset
-        if done.any():
-            idx = np.flatnonzero(done)
-            self.targets[idx] = _sample_targets(self.np_random, idx.size)
-            obs = self._batch.reset(self.targets[idx], [int(i) for i in idx])
-            reward[idx] = 0.0
+    def _arm_seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
+        if seed is None:
+            return [None] * self.num_envs
+        if isinstance(seed, (int, np.integer)):
+            return [int(seed) + i for i in range(self.num_envs)]
+        seeds = list(seed)
+        if len(seeds) != self.num_envs:
+            raise ValueError(
+                f"seed is a list of {len(seeds)} seeds, expected one per arm (num_envs = "
+                f"{self.num_envs}), an int or None"
+            )
+        return seeds
+
+    def _arm_rng(self, i: int) -> np.random.Generator:
+        rng = self._arm_rngs[i]
+        if rng is None:  # as gym.Env.np_random: seeded from entropy on first use
+            rng, _ = seeding.np_random()
+            self._arm_rngs[i] = rng
+        return rng
+
+    def _reset_arms(
+        self,
+        indices: Sequence[int],
+        seeds: Sequence[int | None],
+        targets: Sequence[FloatArray | None],
+    ) -> ObsArray:
+        """Reset arms ``indices``: arm i's generator is reseeded if its seed is not None; its
+        target is the given one, or else drawn from its generator (as ``ArmReachEnv.reset``)."""
+        for i, s in zip(indices, seeds):
+            if s is not None:
+                self._arm_rngs[i], _ = seeding.np_random(int(s))
+        rows = []
+        for i, t in zip(indices, targets):
+            rows.append(t if t is not None else _sample_targets(self._arm_rng(i), 1)[0])
+        idx = list(indices)
+        if idx:
+            new = np.array(rows, dtype=np.float64).reshape(len(idx), 2)
+            self._obs = self._batch.reset(new, idx)
+            self.targets[idx] = new
             self._elapsed[idx] = 0
-        truncated = self._elapsed >= self.max_episode_steps
+            self._autoreset[idx] = False
+        assert self._obs is not None
+        return self._obs
+
+    def _step_arms(
+        self, actions: Any
+    ) -> tuple[ObsArray, FloatArray, FloatArray, list[str | None]]:
+        """Step every arm without autoreset: (obs, rewards, tip distances, the guard's message
+        or None per arm). Counts the step in each arm's episode."""
+        obs, reward, distance, failures = self._batch.step(actions)
+        self._obs = obs
+        self._elapsed += 1
+        return obs, reward, distance, [None if f is None else str(f) for f in failures]
+
+    # -- Gymnasium API ----------------------------------------------------------------------
+
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[ObsArray, dict[str, Any]]:
+        seeds = self._arm_seeds(seed)
+        if isinstance(seed, (int, np.integer)):
+            super().reset(seed=int(seed))  # the vector env's own np_random (not used for targets)
+        options = _check_options(options, ["target", "reset_mask"])
+        n = self.num_envs
+        if "reset_mask" in options:
+            mask = options["reset_mask"]
+            if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (n,)):
+                raise ValueError(
+                    f"options['reset_mask'] must be a bool NumPy array of shape ({n},)"
+                )
+            if not mask.any():
+                raise ValueError("options['reset_mask'] must select at least one arm")
+            indices = [int(i) for i in np.flatnonzero(mask)]
+        else:
+            indices = list(range(n))
+        targets: list[FloatArray | None] = [None] * len(indices)
+        if "target" in options:
+            t = np.asarray(options["target"])
+            if t.ndim == 2:
+                all_targets = _real_array(t, "target", (n, 2))
+                targets = [all_targets[i] for i in indices]
+            else:
+                one = _real_array(t, "target", (2,))
+                targets = [one] * len(indices)
+        obs = self._reset_arms(indices, [seeds[i] for i in indices], targets)
+        return obs.copy(), {}
+
+    def step(
+        self, actions: Any
+    ) -> tuple[ObsArray, FloatArray, npt.NDArray[np.bool_], npt.NDArray[np.bool_], dict[str, Any]]:
+        done = self._autoreset.copy()
+        obs, reward, distance, failures = self._step_arms(actions)
+        if done.any():  # next-step autoreset: these arms start a new episode instead
+            idx = [int(i) for i in np.flatnonzero(done)]
+            obs = self._reset_arms(idx, [None] * len(idx), [None] * len(idx))
+            reward[idx] = 0.0
+            distance[idx] = 0.0
+        unstable = np.array([f is not None for f in failures]) & ~done
+        truncated = (self._elapsed >= self.max_episode_steps) | unstable
+        truncated[done] = False
         terminated = np.zeros(self.num_envs, dtype=bool)
-        self._autoreset = truncated.copy()
-        return obs, reward, terminated, truncated, {"tip_distance": distance}
+        self._autoreset = truncated | terminated
+        # As SyncVectorEnv batches the sub-environments' infos: a value and a mask per key.
+        # (A key is present when at least one arm has it this step.)
+        info: dict[str, Any] = {}
+        if not done.all():
+            info["tip_distance"] = distance
+            info["_tip_distance"] = ~done
+        if unstable.any():
+            messages = np.full(self.num_envs, None, dtype=object)
+            for i in np.flatnonzero(unstable):
+                messages[i] = failures[i]
+            info["unstable"] = messages
+            info["_unstable"] = unstable
+        return obs.copy(), reward, terminated, truncated, info
+
+    def simulation(self, index: int) -> Simulation:
+        """A copy of arm ``index`` as an :class:`octoarm.Simulation`."""
+        return self._batch.simulation(index)
