@@ -14,6 +14,13 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::ffi::CString;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::sync::Mutex;
+use std::time::Duration;
+
+/// The signal number recorded for an interrupt from Python (SIGINT).
+const SIGINT: usize = 2;
 
 /// Run the scenario file `path` (passive or controlled) and write its outputs to `out_dir`
 /// (default: the command line's, results/<name>), exactly as `octoarm run [--duration D] --out
@@ -26,7 +33,9 @@ use std::path::PathBuf;
 /// end). A bad scenario raises `ValueError` (file:line:col: message), an output-directory
 /// problem `OSError`; a run stopped by the stability guard raises `InstabilityError` and a
 /// controller failure `RuntimeError`, both after writing what was recorded, with the dict as
-/// their `report` attribute (status "unstable" / "failed").
+/// their `report` attribute (status "unstable" / "failed"). Ctrl-C stops the run at the current
+/// step: what was recorded is written (status "interrupted") and `KeyboardInterrupt` is raised
+/// with the report attached.
 #[pyfunction]
 #[pyo3(signature = (path, out_dir = None, duration = None))]
 pub fn run_scenario<'py>(
@@ -51,16 +60,44 @@ pub fn run_scenario<'py>(
     let target = out_dir.unwrap_or_else(|| octoarm_app::default_out_dir(&scn));
     let out = OutputDir::prepare(&target).map_err(|e| PyOSError::new_err(e.to_string()))?;
     let controlled = scn.config.controller.is_some();
-    let report = py
-        .detach(|| {
+    // The run goes on a worker thread while this one waits with the GIL released and, every
+    // 50 ms, lets Python handle signals: Ctrl-C (or any handler that raises) sets the stop flag,
+    // the run records the state it stopped at and writes its outputs, and the handler's
+    // exception (KeyboardInterrupt) is raised with the report attached.
+    let stop = AtomicUsize::new(0);
+    let mut pending: Option<PyErr> = None;
+    let report = std::thread::scope(|s| {
+        let (tx, rx) = mpsc::channel();
+        // In a mutex only so that the waiting closure may borrow it across `detach`.
+        let rx = Mutex::new(rx);
+        let stop = &stop;
+        s.spawn(move || {
             let opts = RunOptions {
                 progress: None,
                 figures: None,
-                stop: None,
+                stop: Some(stop),
             };
-            pipeline::run(&scn, prepared, out, &opts)
-        })
-        .map_err(|e| PyOSError::new_err(format!("{e:#}")))?;
+            // The receiver outlives the scope's threads, so the send cannot fail.
+            let _ = tx.send(pipeline::run(&scn, prepared, out, &opts));
+        });
+        loop {
+            match py.detach(|| recv(&rx)) {
+                Ok(result) => break Some(result),
+                Err(RecvTimeoutError::Timeout) => {
+                    if pending.is_none() {
+                        if let Err(e) = py.check_signals() {
+                            pending = Some(e);
+                            stop.store(SIGINT, Ordering::SeqCst);
+                        }
+                    }
+                }
+                // Only if the worker panicked; the scope then re-raises its panic.
+                Err(RecvTimeoutError::Disconnected) => break None,
+            }
+        }
+    })
+    .ok_or_else(|| PyRuntimeError::new_err("the run's thread ended without a result"))?
+    .map_err(|e| PyOSError::new_err(format!("{e:#}")))?;
     let status = match &report.failure {
         None => "completed",
         Some(Failure::Unstable(_)) => "unstable",
@@ -89,11 +126,16 @@ pub fn run_scenario<'py>(
         None => return Ok(d),
         Some(Failure::Unstable(e)) => step_error(py, e),
         Some(Failure::Control(msg)) => PyRuntimeError::new_err(format!("controller: {msg}")),
-        // Not reached: no stop flag is passed (`RunOptions::stop` is None).
-        Some(Failure::Interrupted(sig)) => {
+        Some(Failure::Interrupted(sig)) => pending.unwrap_or_else(|| {
             PyKeyboardInterrupt::new_err(format!("interrupted by signal {sig}"))
-        }
+        }),
     };
     err.value(py).setattr("report", d)?;
     Err(err)
+}
+
+/// Wait up to 50 ms for the run's result.
+fn recv<T>(rx: &Mutex<Receiver<T>>) -> Result<T, RecvTimeoutError> {
+    let rx = rx.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    rx.recv_timeout(Duration::from_millis(50))
 }

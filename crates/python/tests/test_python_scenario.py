@@ -146,3 +146,30 @@ def test_unstable_run_raises_after_writing(tmp_path):
     assert summary["status"] == "unstable" and summary["failure"]["kind"] == "unstable"
     t = np.load(out / "trajectory.npz")["time"]
     assert t.size == e.report["frames"] >= 1 and np.isfinite(t).all()
+
+
+def test_ctrl_c_stops_run_scenario_and_keeps_what_was_recorded(tmp_path):
+    """Ctrl-C during run_scenario (here: Python's interrupt of the main thread, as a SIGINT
+    handler does) stops the run within a step: the outputs hold what was recorded, finite,
+    summary.json says "interrupted", and KeyboardInterrupt carries the report."""
+    import _thread
+    import threading
+
+    out = tmp_path / "out"
+    timer = threading.Timer(1.0, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt) as caught:
+            # 50 s of simulated time at dt = 1e-5 s: minutes of work, stopped after ~1 s.
+            octoarm.run_scenario(str(ROOT / "scenarios" / "arm_tip_force.toml"), str(out),
+                                 duration=50.0)
+    finally:
+        timer.cancel()
+    report = caught.value.report
+    assert report["status"] == "interrupted"
+    assert 0 < report["steps"] < report["planned_steps"]
+    traj = np.load(out / "trajectory.npz")
+    assert traj["time"].shape == (report["frames"],)
+    for k in traj.files:
+        assert np.isfinite(traj[k]).all(), k
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
