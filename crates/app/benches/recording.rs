@@ -82,6 +82,7 @@ fn bench_recording(c: &mut Criterion) {
         let opts = RunOptions {
             progress: None,
             figures: Some(&CliFigures),
+            stop: None,
         };
         b.iter(|| {
             pipeline::run(

@@ -8,7 +8,8 @@ use crate::initial;
 use crate::scenario::*;
 use octoarm_control::{
     ControlError, Controller, DesignMode, GraspSpec, ShapingController, ShapingControllerConfig,
-    SphereSpec, StrainSpace, TargetPhase, TaskSchedule, UpdateRule,
+    SphereSpec, Statics, StaticsError, StrainSpace, TargetPhase, TaskError, TaskSchedule,
+    UpdateRule,
 };
 use octoarm_physics::{
     AnalyticalDamper, ContactParams, Damping, EndCondition, Joint, JointEnd, JointKind,
@@ -67,6 +68,26 @@ pub fn schedule(s: &ScheduleConfig) -> Schedule {
             times: s.times.clone().unwrap_or_default(),
             values: s.values.clone().unwrap_or_default(),
         },
+    }
+}
+
+/// A physics error in words, numbers with at most 6 significant digits.
+fn model_message(e: &ModelError) -> String {
+    match e {
+        ModelError::OutOfRange {
+            field,
+            value,
+            range,
+        } => format!(
+            "{field} = {} is outside the allowed range {range}",
+            fmt_num(*value)
+        ),
+        ModelError::BadVector {
+            field,
+            value,
+            reason,
+        } => format!("{field} = {} is invalid: {reason}", fmt_vec(*value)),
+        other => other.to_string(),
     }
 }
 
@@ -156,7 +177,8 @@ fn rest_strains(r: &RodConfig, model: &RodModel) -> Option<RestFields> {
 /// Build the rod system and its initial state of a scenario (fast: no controller solves).
 pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), ScenarioError> {
     let cfg = &scn.config;
-    let located = |key: String, e: ModelError| scn.error_at(&key, format!("{key}: {e}"));
+    let located =
+        |key: String, e: ModelError| scn.error_at(&key, format!("{key}: {}", model_message(&e)));
     let settings = Settings {
         dt: cfg.time.dt,
         energy_consistent: cfg.numerics.energy_consistent,
@@ -192,6 +214,7 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
                 .set_rest_strains(s, k)
                 .map_err(|e| located(format!("{key}.{}", field_of(&e)), e))?;
         }
+        check_derived(scn, &key, r, &model, given.as_ref(), &state)?;
         let shared_key = (
             rod.clone(),
             given.clone().filter(|_| r.rest_schedule.is_none()),
@@ -276,6 +299,30 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
             zeta: cfg.contact.zeta,
         })
         .map_err(|e| located("contact".into(), e))?;
+    // The contact stiffness β E Â / l̂ (and its damping) must be a number.
+    if !cfg.obstacles.is_empty() || cfg.grasp.is_some() {
+        let k = system
+            .rods()
+            .iter()
+            .flat_map(|r| {
+                let m = &r.model;
+                (0..m.n_elements).map(move |j| {
+                    cfg.contact.beta * m.material.youngs_modulus * m.area[j] / m.rest_length[j]
+                })
+            })
+            .fold(0.0f64, f64::max);
+        if !k.is_finite() {
+            return Err(scn.error_at(
+                "contact.beta",
+                format!(
+                    "contact.beta = {}: the contact stiffness beta E A / l overflows ({}); use \
+                     a factor of order 1",
+                    fmt_num(cfg.contact.beta),
+                    fmt_num(k)
+                ),
+            ));
+        }
+    }
     for (i, l) in cfg.loads.iter().enumerate() {
         let key = format!("load[{i}]");
         let sched = match (&l.schedule, l.ramp_time) {
@@ -353,7 +400,446 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
     if let Some(init) = &cfg.initial_state {
         initial::apply(scn, init, &system, &mut state)?;
     }
+    validate_tasks(scn, &system, &state)?;
     Ok((system, state))
+}
+
+/// The largest |factor| of a schedule (1 for constant, ramp and step).
+fn max_factor(s: &ScheduleConfig) -> f64 {
+    match s.kind {
+        ScheduleKind::PiecewiseLinear => s
+            .values
+            .as_deref()
+            .unwrap_or(&[])
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs())),
+        _ => 1.0,
+    }
+}
+
+/// Quantities derived from a rod section (masses, areas, inertias, stiffnesses, their
+/// inverses, the stable time step and the strain energy of the rest strains) must be finite
+/// and positive: inputs far outside physical values (`youngs_modulus = 1e300`,
+/// `rest_curvature = [1e300, 0, 0]`) would otherwise put `inf` into the outputs.
+fn check_derived(
+    scn: &Scenario,
+    key: &str,
+    r: &RodConfig,
+    model: &RodModel,
+    given: Option<&RestFields>,
+    straight: &octoarm_physics::RodState,
+) -> Result<(), ScenarioError> {
+    let diameter = if r.tip_diameter.unwrap_or(r.base_diameter) < r.base_diameter {
+        "tip_diameter"
+    } else {
+        "base_diameter"
+    };
+    let fail = |input: &str, what: &str, value: f64, index: usize| {
+        let k = format!("{key}.{input}");
+        let shown = match input {
+            "density" => fmt_num(r.density),
+            "youngs_modulus" => fmt_num(r.youngs_modulus),
+            "shear_modulus" => fmt_num(r.shear_modulus),
+            "length" => fmt_num(r.length),
+            "base_diameter" => fmt_num(r.base_diameter),
+            "tip_diameter" => fmt_num(r.tip_diameter.unwrap_or(r.base_diameter)),
+            _ => String::new(),
+        };
+        let given = if shown.is_empty() {
+            String::new()
+        } else {
+            format!(" = {shown}")
+        };
+        Err(scn.error_at(
+            &k,
+            format!(
+                "{k}{given}: the {what} of element {index} is {} (it must be a finite positive \
+                 number of float64); use values of physical size in SI units",
+                fmt_num(value)
+            ),
+        ))
+    };
+    let ok = |x: f64| x.is_finite() && x > 0.0 && (1.0 / x).is_finite();
+    let n = model.n_elements;
+    for j in 0..n {
+        // Strains and energies square element lengths.
+        let l = model.rest_length[j];
+        if !ok(l * l) {
+            return fail("length", "squared rest length", l * l, j);
+        }
+        if !ok(model.area[j]) {
+            return fail(diameter, "cross-section area", model.area[j], j);
+        }
+        for c in 0..3 {
+            if !ok(model.second_moment[j][c]) {
+                return fail(
+                    diameter,
+                    "second moment of area",
+                    model.second_moment[j][c],
+                    j,
+                );
+            }
+        }
+        if !ok(model.element_mass[j]) {
+            return fail("density", "mass", model.element_mass[j], j);
+        }
+        for c in 0..3 {
+            if !ok(model.inertia[j][c]) {
+                return fail("density", "rotational inertia", model.inertia[j][c], j);
+            }
+            let input = if c == 2 {
+                "youngs_modulus"
+            } else {
+                "shear_modulus"
+            };
+            if !ok(model.shear_stiffness[j][c]) {
+                return fail(
+                    input,
+                    "shear/stretch stiffness",
+                    model.shear_stiffness[j][c],
+                    j,
+                );
+            }
+        }
+    }
+    for (i, m) in model.node_mass.iter().enumerate() {
+        if !ok(*m) {
+            return fail("density", "node mass", *m, i);
+        }
+    }
+    for (k, b) in model.bend_stiffness.iter().enumerate() {
+        for (c, &v) in b.iter().enumerate() {
+            let input = if c == 2 {
+                "shear_modulus"
+            } else {
+                "youngs_modulus"
+            };
+            if !ok(v) {
+                return fail(input, "bend/twist stiffness", v, k);
+            }
+        }
+    }
+    let stable = model.stable_dt();
+    if !(stable.is_finite() && stable > 0.0) {
+        let k = format!("{key}.youngs_modulus");
+        return Err(scn.error_at(
+            &k,
+            format!(
+                "{k}: the stable time step 2/ω_max is {} s (youngs_modulus = {}, shear_modulus = \
+                 {}, density = {}): no time step can integrate this rod; use values of physical size",
+                fmt_num(stable),
+                fmt_num(r.youngs_modulus),
+                fmt_num(r.shear_modulus),
+                fmt_num(r.density)
+            ),
+        ));
+    }
+    // The strain energy of the straight rod against its rest strains (scaled by the largest
+    // factor of a rest schedule) must be finite: it is the largest the rest strains make.
+    let factor = r.rest_schedule.as_ref().map_or(1.0, max_factor);
+    let (sigma, kappa): (Vec<[f64; 3]>, Vec<[f64; 3]>) = match given {
+        Some((s, k)) => (s.clone(), k.clone()),
+        None => (model.rest_sigma.clone(), model.rest_kappa.clone()),
+    };
+    let scale = |v: &[[f64; 3]]| -> Vec<[f64; 3]> {
+        v.iter()
+            .map(|x| [x[0] * factor, x[1] * factor, x[2] * factor])
+            .collect()
+    };
+    let (sigma, kappa) = (scale(&sigma), scale(&kappa));
+    let e = octoarm_physics::energies_with_rest(
+        model,
+        straight,
+        &sigma,
+        &kappa,
+        scn.config.numerics.energy_consistent,
+    );
+    let input = if r.rest_kappa.is_some() {
+        "rest_kappa"
+    } else if !e.stretch.is_finite() && r.rest_sigma.is_some() {
+        "rest_sigma"
+    } else {
+        "rest_curvature"
+    };
+    let overflow = !e.stretch.is_finite() || !e.bend.is_finite();
+    let huge = sigma.iter().chain(&kappa).flatten().any(|v| !v.is_finite());
+    if overflow || huge {
+        let k = format!("{key}.{input}");
+        let what = if r.rest_schedule.is_some() {
+            format!(
+                " (times the largest rest_schedule factor {})",
+                fmt_num(factor)
+            )
+        } else {
+            String::new()
+        };
+        return Err(scn.error_at(
+            &k,
+            format!(
+                "{k}: the strain energy of the straight rod against these rest strains{what} \
+                 overflows (stretch {} J, bend {} J): rest strains of physical size are at most \
+                 about 1/radius (curvature) and 1 (shear, stretch)",
+                fmt_num(e.stretch),
+                fmt_num(e.bend)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Check the controller's tasks against the controlled rod without solving anything (control
+/// spec §3.4: targets within 1.5 L0 of the base, points of a planar task in its plane, no
+/// obstacle or grasped sphere containing the base), at every target (at the start and the end
+/// of its phase, for a moving one) and every via point: what the solver would reject before or
+/// during the run is an input error, found by `check` and before `run` writes anything.
+pub fn validate_tasks(
+    scn: &Scenario,
+    system: &RodSystem,
+    state: &SystemState,
+) -> Result<(), ScenarioError> {
+    let cfg = &scn.config;
+    let (Some(ctrl), Some(sv)) = (&cfg.controller, &cfg.solver) else {
+        return Ok(());
+    };
+    let rod = cfg
+        .find_rod("controller.rod", ctrl.rod.as_deref())
+        .map_err(|b| scn.error_at(&b.key, b.to_string()))?;
+    let Some(schedule) = task_schedule(cfg) else {
+        return Ok(());
+    };
+    let r = system.rod(rod);
+    let space = if sv.planar {
+        StrainSpace::Planar
+    } else {
+        StrainSpace::Full
+    };
+    let statics = Statics::new(
+        &r.model,
+        &system.rod_state(state, rod),
+        space,
+        sv.design_floor_diameter,
+    )
+    .map_err(|e| match e {
+        StaticsError::NotPlanar { .. } => scn.error_at(
+            "solver.planar",
+            format!(
+                "solver.planar = true needs the controlled rod \"{}\" in the x-y plane: direction \
+                 in that plane and normal along +z or -z (or set solver.planar = false)",
+                r.name
+            ),
+        ),
+        other => scn.error_at("controller", format!("controller: {other}")),
+    })?;
+    // The design's stiffness floor (a rod of that diameter) must be a number.
+    let d = sv.design_floor_diameter;
+    let m = &r.model.material;
+    let floor = [
+        m.youngs_modulus * std::f64::consts::PI * d.powi(4) / 64.0,
+        m.shear_modulus * std::f64::consts::PI * d * d / 4.0,
+    ];
+    if floor.iter().any(|x| !x.is_finite()) {
+        return Err(scn.error_at(
+            "solver.design_floor_diameter",
+            format!(
+                "solver.design_floor_diameter = {} m: the stiffness of a rod of that diameter \
+                 overflows; the floor is a few millimetres (default 4e-3 m)",
+                fmt_num(d)
+            ),
+        ));
+    }
+    let n_obstacles = cfg.obstacles.len();
+    let t0 = state.time;
+    let t_end = t0 + cfg.time.duration;
+    // (key of the task's tip point, the point, when) for every target phase end and via point.
+    let mut points: Vec<(String, Vec3, f64)> = Vec::new();
+    for (i, tg) in schedule.targets.iter().enumerate() {
+        let start = if i == 0 { t0.min(tg.from) } else { tg.from };
+        let end = schedule
+            .targets
+            .get(i + 1)
+            .map_or(t_end, |next| next.from)
+            .min(t_end)
+            .max(start);
+        points.push((format!("target[{i}].position"), tg.at(tg.from), tg.from));
+        if tg.velocity != [0.0; 3] {
+            for t in [start, end] {
+                points.push((format!("target[{i}].velocity"), tg.at(t), t));
+            }
+        }
+    }
+    if let Some(v) = &cfg.via_path {
+        for (k, p) in v.points.iter().enumerate() {
+            points.push((format!("via_path.points[{k}]"), *p, v.start));
+        }
+    }
+    let located = |tip_key: &str, when: f64, e: TaskError| -> ScenarioError {
+        let obstacle_key = |index: usize| {
+            if index < n_obstacles {
+                format!("obstacle[{index}]")
+            } else {
+                "grasp".to_string()
+            }
+        };
+        let moving = tip_key.ends_with(".velocity");
+        let at_time = if moving {
+            format!(" (the target's position at t = {} s)", fmt_num(when))
+        } else {
+            String::new()
+        };
+        let (key, message) = match e {
+            TaskError::TargetTooFar {
+                value,
+                distance,
+                limit,
+            } => (
+                tip_key.to_string(),
+                format!(
+                    "{tip_key}: the target {}{at_time} is {} m from the base of rod \"{}\"; a \
+                     target must be within 1.5 L0 = {} m of the base",
+                    fmt_vec(value),
+                    fmt_num(distance),
+                    r.name,
+                    fmt_num(limit)
+                ),
+            ),
+            TaskError::OffPlane {
+                field,
+                value,
+                plane_z,
+            } => {
+                let key = match field.split_once('.') {
+                    Some(("tip", _)) => tip_key.to_string(),
+                    Some(("grasp", _)) => "grasp.center".to_string(),
+                    _ => field
+                        .split_once(']')
+                        .and_then(|(head, _)| head.split_once('['))
+                        .and_then(|(_, i)| i.parse::<usize>().ok())
+                        .map_or_else(
+                            || "grasp.center".to_string(),
+                            |i| format!("{}.center", obstacle_key(i)),
+                        ),
+                };
+                (
+                    key.clone(),
+                    format!(
+                        "{key}: {}{at_time} is off the plane z = {} of the planar controller \
+                         (solver.planar = true); put it in that plane or set solver.planar = false",
+                        fmt_vec(value),
+                        fmt_num(plane_z)
+                    ),
+                )
+            }
+            TaskError::ObstacleContainsBase {
+                index,
+                center,
+                diameter,
+                distance,
+                limit,
+            } => {
+                let key = obstacle_key(index);
+                (
+                    format!("{key}.center"),
+                    format!(
+                        "{key}: the sphere (center {}, diameter {} m) contains the base of the \
+                         controlled rod \"{}\": its centre is {} m from the base, at least \
+                         (diameter + base diameter) / 2 = {} m is needed",
+                        fmt_vec(center),
+                        fmt_num(diameter),
+                        r.name,
+                        fmt_num(distance),
+                        fmt_num(limit)
+                    ),
+                )
+            }
+            TaskError::OutOfRange {
+                field,
+                value,
+                range,
+            } => (
+                "controller".to_string(),
+                format!(
+                    "controller: task {field} = {} is outside the allowed range {range}",
+                    fmt_num(value)
+                ),
+            ),
+            other => ("controller".to_string(), format!("controller: {other}")),
+        };
+        scn.error_at(&key, message)
+    };
+    if points.is_empty() {
+        // A grasp: no tip target.
+        return schedule
+            .task(None)
+            .validate(&statics)
+            .map_err(|e| located("grasp", t0, e));
+    }
+    for (key, p, when) in &points {
+        schedule
+            .task(Some(*p))
+            .validate(&statics)
+            .map_err(|e| located(key, *when, e))?;
+    }
+    Ok(())
+}
+
+/// Things worth changing in a valid controlled scenario (shown by `octoarm check`): a target
+/// inside an obstacle (the tip cannot get there; the design presses the arm into the sphere),
+/// a grasped sphere overlapping the rod at rest.
+pub fn task_advisories(scn: &Scenario, system: &RodSystem, state: &SystemState) -> Vec<String> {
+    let cfg = &scn.config;
+    let mut out = Vec::new();
+    if cfg.controller.is_none() {
+        return out;
+    }
+    for (i, tg) in cfg.targets.iter().enumerate() {
+        for (j, o) in cfg.obstacles.iter().enumerate() {
+            let c = [
+                o.center[0] + o.velocity[0] * tg.from,
+                o.center[1] + o.velocity[1] * tg.from,
+                o.center[2] + o.velocity[2] * tg.from,
+            ];
+            let d = octoarm_physics::math::norm(octoarm_physics::math::sub(tg.position, c));
+            if d < 0.5 * o.diameter {
+                out.push(format!(
+                    "target[{i}].position = {} lies inside obstacle[{j}] (center {}, diameter {} m at \
+                     t = {} s): the tip cannot reach it and the design presses the arm into the \
+                     sphere; move the target or the obstacle",
+                    fmt_vec(tg.position),
+                    fmt_vec(c),
+                    fmt_num(o.diameter),
+                    fmt_num(tg.from)
+                ));
+            }
+        }
+    }
+    if let Some(g) = &cfg.grasp {
+        let radius = 0.5 * g.diameter;
+        let overlap = system.rods().iter().any(|rod| {
+            let nodes = rod.nodes();
+            (0..rod.n_elements()).any(|j| {
+                let (a, b) = (
+                    state.position.get(nodes.start + j),
+                    state.position.get(nodes.start + j + 1),
+                );
+                let mid = [
+                    0.5 * (a[0] + b[0]),
+                    0.5 * (a[1] + b[1]),
+                    0.5 * (a[2] + b[2]),
+                ];
+                octoarm_physics::math::norm(octoarm_physics::math::sub(mid, g.center))
+                    < radius + rod.model.radius[j]
+            })
+        });
+        if overlap {
+            out.push(format!(
+                "grasp (center {}, diameter {} m) overlaps a rod at rest: the contact force will push \
+                 the rod out violently; move the sphere",
+                fmt_vec(g.center),
+                fmt_num(g.diameter)
+            ));
+        }
+    }
+    out
 }
 
 /// The task schedule of a controlled scenario.

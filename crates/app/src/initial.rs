@@ -5,7 +5,7 @@
 
 use crate::output::{npz_names, read_npz_frame, read_npz_vector};
 use crate::recorder::array_key;
-use crate::scenario::{InitialStateConfig, Scenario, ScenarioError};
+use crate::scenario::{fmt_num, InitialStateConfig, Scenario, ScenarioError};
 use octoarm_physics::{RodState, RodSystem, SystemState};
 
 /// Overwrite `state` with the frame `init` names.
@@ -18,15 +18,36 @@ pub fn apply(
     let path = scn.relative_path(&init.file);
     let at = |key: &str, msg: String| scn.error_at(key, format!("{key}: {msg}"));
     let names = npz_names(&path).map_err(|e| at("initial_state.file", format!("{e:#}")))?;
-    let times =
-        read_npz_vector(&path, "time").map_err(|e| at("initial_state.file", format!("{e:#}")))?;
-    if times.is_empty() {
+    // The frame count from the header (reading one value): a huge file is not read whole.
+    let frames = match read_npz_frame(&path, "time", 0) {
+        Ok((shape, _)) => shape.first().copied().unwrap_or(0),
+        Err(e) if format!("{e:#}").contains("frame 0 requested") => 0,
+        Err(e) => return Err(at("initial_state.file", format!("{e:#}"))),
+    };
+    if frames == 0 {
         return Err(at(
             "initial_state.file",
             format!("{} holds no frames", path.display()),
         ));
     }
-    let frames = times.len();
+    if frames > MAX_INITIAL_FRAMES {
+        return Err(at(
+            "initial_state.file",
+            format!(
+                "{} holds {frames} frames, more than the {MAX_INITIAL_FRAMES} octoarm reads to \
+                 find one; is this a trajectory.npz?",
+                path.display()
+            ),
+        ));
+    }
+    let times =
+        read_npz_vector(&path, "time").map_err(|e| at("initial_state.file", format!("{e:#}")))?;
+    if times.len() != frames {
+        return Err(at(
+            "initial_state.file",
+            format!("{}: `time` is not a vector of frames", path.display()),
+        ));
+    }
     let index = match (init.frame, init.time) {
         (_, Some(t)) => {
             let half = 0.5 * system.settings().dt;
@@ -37,10 +58,11 @@ pub fn apply(
                     at(
                         "initial_state.time",
                         format!(
-                            "no frame of {} at t = {t} s (frames from {} s to {} s)",
+                            "no frame of {} at t = {} s (frames from {} s to {} s)",
                             path.display(),
-                            times[0],
-                            times[frames - 1]
+                            fmt_num(t),
+                            fmt_num(times[0]),
+                            fmt_num(times[frames - 1])
                         ),
                     )
                 })?
@@ -63,6 +85,16 @@ pub fn apply(
     let multi = system.rods().len() > 1;
     let dt = system.settings().dt;
     let t = times[index];
+    if !t.is_finite() {
+        return Err(at(
+            "initial_state.file",
+            format!(
+                "{}: frame {index} has time {}, not a finite number",
+                path.display(),
+                fmt_num(t)
+            ),
+        ));
+    }
     for (r, rod) in system.rods().iter().enumerate() {
         let n = rod.n_elements();
         let key = |field: &str| array_key(multi, &rod.name, field);
@@ -119,7 +151,18 @@ pub fn apply(
             if names.contains(&name) {
                 let (_, v) = read_npz_frame(&path, &name, index)
                     .map_err(|e| at("initial_state.file", format!("{e:#}")))?;
-                *dst = v[0];
+                let value = v.first().copied().unwrap_or(f64::NAN);
+                if !value.is_finite() {
+                    return Err(at(
+                        "initial_state.file",
+                        format!(
+                            "{}: `{name}` of frame {index} is {}, not a finite number",
+                            path.display(),
+                            fmt_num(value)
+                        ),
+                    ));
+                }
+                *dst = value;
             }
         }
     }
@@ -134,5 +177,43 @@ pub fn apply(
         state.step = 0;
     }
     state.time = t;
+    // The energies of the frame must be finite (a frame of speed 1e160 m/s is finite but its
+    // kinetic energy is not).
+    let mut sigma = system.rest_sigma.clone();
+    let mut kappa = system.rest_kappa.clone();
+    if !system.rest_changes().is_empty() {
+        system.rest_at(t, &mut sigma, &mut kappa);
+    }
+    let ec = system.settings().energy_consistent;
+    for (r, rod) in system.rods().iter().enumerate() {
+        let e = octoarm_physics::energies_with_rest(
+            &rod.model,
+            &system.view(state, r),
+            &sigma[rod.elements()],
+            &kappa[rod.interior()],
+            ec,
+        );
+        let parts = [
+            ("translational", e.translational),
+            ("rotational", e.rotational),
+            ("stretch", e.stretch),
+            ("bend", e.bend),
+        ];
+        if let Some((what, v)) = parts.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(at(
+                "initial_state.file",
+                format!(
+                    "{}: frame {index} of rod \"{}\" has a {what} energy of {} J (it overflows): \
+                     not a state this rod can start from",
+                    path.display(),
+                    rod.name,
+                    fmt_num(*v)
+                ),
+            ));
+        }
+    }
     Ok(())
 }
+
+/// Most frames of a `trajectory.npz` read to find the initial one (their times: 8 bytes each).
+pub const MAX_INITIAL_FRAMES: usize = 1 << 25;

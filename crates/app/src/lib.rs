@@ -7,6 +7,7 @@
 
 pub mod acceptance;
 pub mod build;
+pub mod estimate;
 pub mod initial;
 pub mod outdir;
 pub mod output;
@@ -28,7 +29,7 @@ mod plot;
 #[cfg(feature = "cli")]
 pub mod progress;
 
-use scenario::{fmt_vec, Scenario, ScenarioError};
+use scenario::{fmt_num, fmt_sci, fmt_vec, Scenario, ScenarioError};
 use std::path::PathBuf;
 
 /// The default output directory of a scenario: `results/<file stem>`.
@@ -82,7 +83,7 @@ pub fn advisories(
     if off_grid(steps as f64, cfg.time.duration) {
         out.push(format!(
             "time.duration = {} s is not a multiple of dt = {dt:e} s: running {steps} steps, to t = {:.9} s",
-            cfg.time.duration,
+            fmt_num(cfg.time.duration),
             steps as f64 * dt
         ));
     }
@@ -90,7 +91,7 @@ pub fn advisories(
     if off_grid(every as f64, cfg.time.save_interval) {
         out.push(format!(
             "time.save_interval = {} s is not a multiple of dt = {dt:e} s: recording every {every} steps ({:.9} s)",
-            cfg.time.save_interval,
+            fmt_num(cfg.time.save_interval),
             every as f64 * dt
         ));
     }
@@ -145,9 +146,9 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
             "  rod {}: {} elements, length {} m, diameter {} m -> {} m, mass {:.4e} kg, base {} at {}, tip {}",
             rod.name,
             r.n_elements,
-            r.length,
-            r.base_diameter,
-            r.tip_diameter.unwrap_or(r.base_diameter),
+            fmt_num(r.length),
+            fmt_num(r.base_diameter),
+            fmt_num(r.tip_diameter.unwrap_or(r.base_diameter)),
             rod.model.total_mass(),
             rod.base.condition.name(),
             fmt_vec(r.base_position),
@@ -156,40 +157,32 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
     }
     let _ = writeln!(
         s,
-        "  stable dt: {stable:.3e} s (recommended <= {:.3e} s); dt = {:e} s is {:.3} x stable dt",
+        "  stable dt: {stable:.3e} s (recommended <= {:.3e} s); dt = {} s is {:.3} x stable dt",
         0.2 * stable,
-        cfg.time.dt,
+        fmt_sci(cfg.time.dt),
         cfg.time.dt / stable
     );
     let _ = writeln!(
         s,
         "  steps: {} (duration {} s from t = {} s); frames: {} (every {} steps = {} s)",
         cfg.n_steps(),
-        cfg.time.duration,
-        state.time,
+        fmt_num(cfg.time.duration),
+        fmt_num(state.time),
         cfg.n_frames(),
         cfg.save_every(),
-        cfg.save_every() as f64 * cfg.time.dt
+        fmt_num(cfg.save_every() as f64 * cfg.time.dt)
     );
-    let per_frame: usize = cfg
-        .rods
-        .list
-        .iter()
-        .map(|r| {
-            let n = r.n_elements;
-            8 * (3 * (n + 1) * 2 + 9 * n + 3 * n + 3 * n + 3 * (n - 1) + 6)
-        })
-        .sum::<usize>()
-        + 8;
     let _ = writeln!(
         s,
-        "  trajectory.npz: {:.1} MB before compression",
-        (per_frame as f64 * cfg.n_frames() as f64) / 1e6
+        "  outputs: {}",
+        estimate::describe(&estimate::estimate_outputs(scn))
     );
     let _ = writeln!(
         s,
         "  damping: rate = {} 1/s, gamma = {} kg/(m s), protocol {:?}",
-        cfg.damping.rate, cfg.damping.gamma, cfg.damping.protocol
+        fmt_num(cfg.damping.rate),
+        fmt_num(cfg.damping.gamma),
+        cfg.damping.protocol
     );
     if cfg.loads.is_empty() {
         let _ = writeln!(s, "  loads: none");
@@ -197,7 +190,7 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
     for l in &cfg.loads {
         let sched = match (&l.schedule, l.ramp_time) {
             (Some(sc), _) => format!(", schedule {:?}", sc.kind).to_lowercase(),
-            (None, Some(t)) if t > 0.0 => format!(", ramped over {t} s"),
+            (None, Some(t)) if t > 0.0 => format!(", ramped over {} s", fmt_num(t)),
             _ => String::new(),
         };
         let on = l
@@ -218,7 +211,7 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
             s,
             "  obstacle: sphere, center {} m, diameter {} m",
             fmt_vec(o.center),
-            o.diameter
+            fmt_num(o.diameter)
         );
     }
     for j in &cfg.joints {
@@ -232,7 +225,11 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
             c.rod.as_deref().unwrap_or("?")
         );
     }
-    for w in advisories(scn, &system, &state) {
+    let warnings = advisories(scn, &system, &state)
+        .into_iter()
+        .chain(build::task_advisories(scn, &system, &state))
+        .chain(estimate::size_warning(scn));
+    for w in warnings {
         let _ = writeln!(s, "  warning: {w}");
     }
     Ok(s)

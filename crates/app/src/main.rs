@@ -55,6 +55,10 @@ enum Command {
         /// Override [time] duration, in simulated seconds (recorded in the output's scenario.toml).
         #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         duration: Option<f64>,
+        /// Refuse a run whose outputs would exceed this size before compression (bytes, or with
+        /// a unit: 500MB, 2GB, 1.5TB; "unlimited" for no limit) [default: 2GB].
+        #[arg(long, value_name = "SIZE", value_parser = parse_size, allow_negative_numbers = true)]
+        max_output: Option<MaxOutput>,
     },
     /// Run the paper's four experiments (scenarios/paper/*.toml, compiled in) in parallel and
     /// write, into OUT, one folder per experiment (two-targets/, moving-target/, obstacles/,
@@ -78,6 +82,10 @@ enum Command {
         /// Run the scenarios of this folder instead of the paper's (every *.toml, by name).
         #[arg(long, value_name = "DIR")]
         scenarios: Option<PathBuf>,
+        /// Refuse if any experiment's outputs would exceed this size before compression (as
+        /// for `run`) [default: 2GB].
+        #[arg(long, value_name = "SIZE", value_parser = parse_size, allow_negative_numbers = true)]
+        max_output: Option<MaxOutput>,
     },
     /// Validate a scenario without running it; print the rod's stable time step, the number of
     /// steps and frames, and any warnings.
@@ -88,6 +96,60 @@ enum Command {
         #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         duration: Option<f64>,
     },
+}
+
+/// The `--max-output` limit: bytes, or none.
+#[derive(Debug, Clone, Copy)]
+struct MaxOutput(Option<u64>);
+
+impl MaxOutput {
+    /// The limit in bytes (`u64::MAX` for "unlimited"); the default is 2 GB.
+    fn bytes(limit: Option<MaxOutput>) -> u64 {
+        limit.map_or(octoarm::estimate::OUTPUT_WARN_BYTES, |m| {
+            m.0.unwrap_or(u64::MAX)
+        })
+    }
+}
+
+/// A size: a number of bytes (`1e9`, `2000000000`), optionally followed by a unit (kB, MB, GB,
+/// TB, powers of 1000; KiB, MiB, GiB, TiB, powers of 1024), or `unlimited`.
+fn parse_size(text: &str) -> Result<MaxOutput, String> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("unlimited") {
+        return Ok(MaxOutput(None));
+    }
+    let split = t
+        .find(|c: char| c.is_ascii_alphabetic() && c != 'e' && c != 'E')
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let scale: f64 = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "k" | "kb" => 1e3,
+        "m" | "mb" => 1e6,
+        "g" | "gb" => 1e9,
+        "t" | "tb" => 1e12,
+        "kib" => 1024.0,
+        "mib" => 1024.0 * 1024.0,
+        "gib" => 1024.0 * 1024.0 * 1024.0,
+        "tib" => 1024.0 * 1024.0 * 1024.0 * 1024.0,
+        other => {
+            return Err(format!(
+                "unknown unit {other:?}; use bytes or kB, MB, GB, TB, KiB, MiB, GiB, TiB, or \
+                 \"unlimited\""
+            ))
+        }
+    };
+    let value: f64 = number
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a size (e.g. 500MB, 2GB, 1e9 or \"unlimited\")"))?;
+    let bytes = value * scale;
+    if !(bytes.is_finite() && bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!(
+            "{text:?} is outside the allowed range [1 B, 18 EB] (or \"unlimited\")"
+        ));
+    }
+    Ok(MaxOutput(Some(bytes as u64)))
 }
 
 /// A run that stopped early; its outputs are written.
@@ -187,10 +249,12 @@ fn run(cli: Cli) -> Result<()> {
             duration,
             threads,
             scenarios,
+            max_output,
         } => {
             let scenarios = paper::paper_scenarios(duration, scenarios.as_deref())?;
             for scn in &scenarios {
                 octoarm::build::build_system(scn)?;
+                octoarm::estimate::check_output_size(scn, MaxOutput::bytes(max_output))?;
             }
             let _lock = paper::prepare_root(&out)?;
             let threads = threads.map_or_else(paper::default_threads, |t| t as usize);
@@ -240,8 +304,10 @@ fn run(cli: Cli) -> Result<()> {
             scenario,
             out,
             duration,
+            max_output,
         } => {
             let scn = load(&scenario, duration)?;
+            octoarm::estimate::check_output_size(&scn, MaxOutput::bytes(max_output))?;
             // Everything about the input is checked (offline designs solved), and the output
             // directory created, before the first step.
             let prepared = pipeline::prepare(&scn)?;

@@ -8,7 +8,7 @@
 use crate::build;
 use crate::output::{write_json, OutputDir};
 use crate::recorder::TrajectoryRecorder;
-use crate::scenario::{steps_of, Scenario, ScenarioError};
+use crate::scenario::{frames_of, steps_of, Scenario, ScenarioError};
 use crate::series::SeriesRecorder;
 use anyhow::{Context, Result};
 use octoarm_control::{ControlReport, Controller};
@@ -215,6 +215,10 @@ pub fn run(
         }
         _ => None,
     };
+    // The series streams to disk as it is recorded, like the trajectory: memory stays bounded.
+    if let Some(s) = &mut series {
+        s.spool_into(&out, frames_of(n_steps, s.every()) as usize)?;
+    }
     let control_every: Vec<u64> = controllers
         .iter()
         .map(|c| steps_of(c.period(), dt))

@@ -1,10 +1,12 @@
 //! The trajectory recorder: samples every rod of the system at the frames the pipeline asks for
-//! and streams them to `trajectory.npz` on a writer thread (constant memory, compression off the
-//! stepping thread). It keeps in memory only what the figures need: per-frame time, energies and
-//! tips, thinned centrelines, and the controlled rod's frames with its desired shape and
-//! targets. Array keys: `position`, … for a lone rod; `<rod name>/position`, … for several.
+//! and streams every array of them (time, states, strains, energies, targets) to
+//! `trajectory.npz` on a writer thread (compression off the stepping thread). Its memory does
+//! not grow with the run's length: for the figures it keeps a bounded, evenly thinned copy of
+//! the per-frame time, energies and tips (at most `MAX_PLOT_FRAMES`, the last frame always
+//! included), a bounded number of centrelines and of the controlled rod's frames. Array keys:
+//! `position`, … for a lone rod; `<rod name>/position`, … for several.
 
-use crate::output::{write_member, OutputDir, SpooledArray};
+use crate::output::{OutputDir, SpooledArray};
 use crate::pipeline::{Moment, Recorder, RunInfo};
 use anyhow::{anyhow, Context, Result};
 use octoarm_physics::{energies_with_rest, strains, RodModel, RodState, Vec3};
@@ -16,10 +18,20 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use zip::ZipWriter;
 
-/// Most centrelines kept in memory for `shapes.png`.
+/// Most centrelines kept in memory for `shapes.png` (fewer for very long rods: at most
+/// `MAX_KEPT_POINTS` points in all).
 pub const MAX_SHAPES: usize = 200;
-/// Most frames of the controlled rod kept in memory for the control figures and the GIF.
+/// Most frames of the controlled rod kept in memory for the control figures and the GIF (fewer
+/// for very long rods: at most `MAX_KEPT_POINTS` points in all).
 pub const MAX_CONTROL_FRAMES: usize = 2000;
+/// Most frames of time, energies and tips kept in memory for the figures (fewer with many rods:
+/// at most `MAX_PLOT_VALUES` numbers in all); beyond, every other one is dropped (the stride
+/// doubles) and the last frame is always kept. `trajectory.npz` has every frame.
+pub const MAX_PLOT_FRAMES: usize = 1 << 14;
+/// Numbers of the per-frame figure data kept in memory (time, 6 energies and a tip per rod).
+pub const MAX_PLOT_VALUES: usize = 1 << 22;
+/// Centreline points kept in memory for the figures, each of `shapes` and `control_frames`.
+pub const MAX_KEPT_POINTS: usize = 4_000_000;
 /// Frames that may wait for the writer thread before `record` blocks.
 const QUEUE: usize = 64;
 
@@ -118,11 +130,16 @@ pub struct TrajectoryRecorder {
     worker: Option<JoinHandle<Result<Vec<SpooledArray>>>>,
     shape_stride: usize,
     control_stride: usize,
-    /// Time of each recorded frame [s].
+    recorded: usize,
+    plot_stride: usize,
+    plot_cap: usize,
+    /// Time of the frames kept for the figures [s]: every frame of a run of up to
+    /// `MAX_PLOT_FRAMES` frames, else evenly thinned; the last recorded frame is included once
+    /// `finish` has run.
     pub time: Vec<f64>,
-    /// Per rod, per frame: the `SERIES` values in order.
+    /// Per rod, per kept frame: the `SERIES` values in order.
     pub series: Vec<Vec<[f64; 6]>>,
-    /// Per rod, per frame: tip position [m].
+    /// Per rod, per kept frame: tip position [m].
     pub tips: Vec<Vec<Vec3>>,
     /// Thinned frames (time, every rod's centreline), ending with the last recorded frame once
     /// `finish` has run.
@@ -130,12 +147,11 @@ pub struct TrajectoryRecorder {
     /// Frames of the controlled rod (thinned to at most `MAX_CONTROL_FRAMES`, the last kept).
     pub control_frames: Vec<ControlFrame>,
     last: (f64, Vec<Vec<Vec3>>),
+    last_plot: Option<(f64, Vec<[f64; 6]>, Vec<Vec3>)>,
     last_control: Option<ControlFrame>,
     // The rest strains in force at a frame (scheduled changes), filled once per frame.
     rest_sigma: Vec<Vec3>,
     rest_kappa: Vec<Vec3>,
-    target: Vec<f64>,
-    design_target: Vec<f64>,
 }
 
 impl TrajectoryRecorder {
@@ -160,7 +176,8 @@ impl TrajectoryRecorder {
                 first_element: r.offsets().element,
             })
             .collect();
-        let mut members: Vec<(String, Vec<usize>)> = Vec::new();
+        // Member order of trajectory.npz: time, every rod's arrays, every rod's series.
+        let mut members: Vec<(String, Vec<usize>)> = vec![("time".to_string(), Vec::new())];
         for (r, rod) in rods.iter().enumerate() {
             let n = rod.model.n_elements;
             for (field, shape, _, _) in rod_arrays(n) {
@@ -168,6 +185,16 @@ impl TrajectoryRecorder {
             }
             if controlled == Some(r) {
                 members.push((array_key(multi, &rod.name, "desired"), vec![n + 1, 3]));
+            }
+        }
+        for (r, rod) in rods.iter().enumerate() {
+            for (name, _, _) in SERIES {
+                members.push((array_key(multi, &rod.name, name), Vec::new()));
+            }
+            if controlled == Some(r) {
+                for name in ["target", "design_target"] {
+                    members.push((array_key(multi, &rod.name, name), vec![3]));
+                }
             }
         }
         let spools = SpooledArray::create_members(
@@ -187,6 +214,10 @@ impl TrajectoryRecorder {
             .spawn(move || write_frames(worker_rods, rx, back, spools))
             .context("cannot start the writer thread")?;
         let n_rods = rods.len();
+        let nodes: usize = rods.iter().map(|r| r.model.n_elements + 1).sum();
+        let max_shapes = (MAX_KEPT_POINTS / nodes.max(1)).clamp(2, MAX_SHAPES);
+        let control_nodes = controlled.map_or(1, |r| 2 * (rods[r].model.n_elements + 1));
+        let max_control = (MAX_KEPT_POINTS / control_nodes).clamp(2, MAX_CONTROL_FRAMES);
         Ok(Self {
             every,
             planned,
@@ -195,26 +226,59 @@ impl TrajectoryRecorder {
             tx: Some(tx),
             recycle,
             worker: Some(worker),
-            shape_stride: planned.div_ceil(MAX_SHAPES).max(1),
-            control_stride: planned.div_ceil(MAX_CONTROL_FRAMES).max(1),
-            time: Vec::with_capacity(planned.min(1 << 20)),
+            shape_stride: planned.div_ceil(max_shapes).max(1),
+            control_stride: planned.div_ceil(max_control).max(1),
+            recorded: 0,
+            plot_stride: 1,
+            plot_cap: (MAX_PLOT_VALUES / (1 + 9 * n_rods)).clamp(64, MAX_PLOT_FRAMES),
+            time: Vec::new(),
             series: vec![Vec::new(); n_rods],
             tips: vec![Vec::new(); n_rods],
             shapes: Vec::new(),
             control_frames: Vec::new(),
             last: (0.0, Vec::new()),
+            last_plot: None,
             last_control: None,
             rest_sigma: system.rest_sigma.clone(),
             rest_kappa: system.rest_kappa.clone(),
             rods,
-            target: Vec::new(),
-            design_target: Vec::new(),
         })
     }
 
-    /// Frames recorded so far.
+    /// Frames recorded so far (all written to `trajectory.npz`).
     pub fn frames(&self) -> usize {
-        self.time.len()
+        self.recorded
+    }
+
+    /// Keep a frame's time, energies and tips for the figures: every `plot_stride`-th frame,
+    /// halving the kept frames (doubling the stride) when there are more than `plot_cap`.
+    fn keep_for_plots(&mut self, time: f64, series: &[[f64; 6]], tips: &[Vec3]) {
+        let index = self.recorded - 1;
+        if index % self.plot_stride == 0 {
+            self.time.push(time);
+            for (r, (e, tip)) in series.iter().zip(tips).enumerate() {
+                self.series[r].push(*e);
+                self.tips[r].push(*tip);
+            }
+            if self.time.len() > self.plot_cap {
+                fn halve<T: Copy>(v: &mut Vec<T>) {
+                    let kept: Vec<T> = v.iter().step_by(2).copied().collect();
+                    *v = kept;
+                }
+                halve(&mut self.time);
+                self.series.iter_mut().for_each(halve);
+                self.tips.iter_mut().for_each(halve);
+                self.plot_stride *= 2;
+            }
+        }
+        match &mut self.last_plot {
+            Some((t, e, p)) => {
+                *t = time;
+                e.copy_from_slice(series);
+                p.copy_from_slice(tips);
+            }
+            None => self.last_plot = Some((time, series.to_vec(), tips.to_vec())),
+        }
     }
 
     /// Frames planned for a complete run.
@@ -246,11 +310,17 @@ impl Recorder for TrajectoryRecorder {
             ));
         }
         let s = m.state;
-        self.time.push(s.time);
+        self.recorded += 1;
         let keep_shape = (self.frames() - 1) % self.shape_stride == 0;
         let mut shape_now = Vec::new();
         let mut buf = self.recycle.try_recv().unwrap_or_default();
         buf.clear();
+        buf.push(s.time);
+        let n_rods = self.rods.len();
+        let mut energies = Vec::with_capacity(n_rods);
+        let mut tips = Vec::with_capacity(n_rods);
+        // Per rod after its arrays: the 6 series values, then target and design target.
+        let mut series_values: Vec<f64> = Vec::with_capacity(12 * n_rods);
         self.last.0 = s.time;
         self.last.1.resize(self.rods.len(), Vec::new());
         let (rest_sigma, rest_kappa) = if m.system.rest_changes().is_empty() {
@@ -270,18 +340,20 @@ impl Recorder for TrajectoryRecorder {
                 &rest_kappa[sys_rod.interior()],
                 ec,
             );
-            self.series[r].push([
+            let row = [
                 e.translational,
                 e.rotational,
                 e.stretch,
                 e.bend,
                 s.work[r],
                 s.dissipated[r],
-            ]);
+            ];
+            energies.push(row);
+            series_values.extend(row);
             let n = rod.model.n_elements;
             let nodes = rod.first_node..rod.first_node + n + 1;
             let elems = rod.first_element..rod.first_element + n;
-            self.tips[r].push(s.position.get(nodes.end - 1));
+            tips.push(s.position.get(nodes.end - 1));
             let centreline = s.position.to_vec(nodes.clone());
             if keep_shape {
                 shape_now.push(centreline.clone());
@@ -312,10 +384,8 @@ impl Recorder for TrajectoryRecorder {
                     .map(|c| c.signals(s.time, m.system, s));
                 let target = sig.and_then(|x| x.target);
                 let design = sig.and_then(|x| x.design_target);
-                self.target
-                    .extend(target.unwrap_or([f64::NAN; 3]).iter().copied());
-                self.design_target
-                    .extend(design.unwrap_or([f64::NAN; 3]).iter().copied());
+                series_values.extend(target.unwrap_or([f64::NAN; 3]));
+                series_values.extend(design.unwrap_or([f64::NAN; 3]));
                 let frame = ControlFrame {
                     time: s.time,
                     position: self.last.1[r].clone(),
@@ -331,6 +401,8 @@ impl Recorder for TrajectoryRecorder {
         if keep_shape {
             self.shapes.push((s.time, shape_now));
         }
+        buf.extend_from_slice(&series_values);
+        self.keep_for_plots(s.time, &energies, &tips);
         if let Some(tx) = &self.tx {
             if tx.send(buf).is_err() {
                 // The writer stopped on an I/O error; `finish` reports it.
@@ -351,6 +423,15 @@ impl Recorder for TrajectoryRecorder {
         if self.shapes.last().map_or(true, |(t, _)| *t != self.last.0) && !self.last.1.is_empty() {
             self.shapes.push(self.last.clone());
         }
+        if let Some((t, e, p)) = self.last_plot.take() {
+            if self.time.last() != Some(&t) {
+                self.time.push(t);
+                for (r, (e, p)) in e.into_iter().zip(p).enumerate() {
+                    self.series[r].push(e);
+                    self.tips[r].push(p);
+                }
+            }
+        }
         if let Some(f) = self.last_control.take() {
             if self
                 .control_frames
@@ -365,37 +446,9 @@ impl Recorder for TrajectoryRecorder {
         let file =
             File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
         let mut npz = ZipWriter::new(BufWriter::with_capacity(1 << 16, file));
-        write_member(&mut npz, "time", &[t], &self.time)?;
         for spool in spools {
             debug_assert_eq!(spool.frames(), t);
             spool.append_to(&mut npz)?;
-        }
-        let mut column = Vec::with_capacity(t);
-        for (r, rod) in self.rods.iter().enumerate() {
-            for (c, (name, _, _)) in SERIES.iter().enumerate() {
-                column.clear();
-                column.extend(self.series[r].iter().map(|row| row[c]));
-                write_member(
-                    &mut npz,
-                    &array_key(self.multi, &rod.name, name),
-                    &[t],
-                    &column,
-                )?;
-            }
-            if self.controlled == Some(r) {
-                write_member(
-                    &mut npz,
-                    &array_key(self.multi, &rod.name, "target"),
-                    &[t, 3],
-                    &self.target,
-                )?;
-                write_member(
-                    &mut npz,
-                    &array_key(self.multi, &rod.name, "design_target"),
-                    &[t, 3],
-                    &self.design_target,
-                )?;
-            }
         }
         npz.finish()?.into_inner().map_err(|e| e.into_error())?;
 
@@ -499,9 +552,21 @@ fn write_frames(
         .iter()
         .map(|(m, _)| vec![[0.0; 3]; m.n_elements - 1])
         .collect();
+    // Spools: time, then each rod's arrays (6, +1 desired), then each rod's series (6, +2).
+    let series_spool: Vec<usize> = {
+        let mut at = 1 + rods.iter().map(|(_, c)| 6 + usize::from(*c)).sum::<usize>();
+        rods.iter()
+            .map(|(_, c)| {
+                let first = at;
+                at += 6 + 2 * usize::from(*c);
+                first
+            })
+            .collect()
+    };
     for buf in rx {
-        let mut at = 0;
-        let mut spool = 0;
+        spools[0].push(&buf[..1])?;
+        let mut at = 1;
+        let mut spool = 1;
         for (r, (model, controlled)) in rods.iter().enumerate() {
             let n = model.n_elements;
             let (np, nd, nw) = (3 * (n + 1), 9 * n, 3 * n);
@@ -531,7 +596,76 @@ fn write_frames(
                 spool += 1;
             }
         }
+        for (r, (_, controlled)) in rods.iter().enumerate() {
+            let first = series_spool[r];
+            for c in 0..6 {
+                spools[first + c].push(&buf[at + c..at + c + 1])?;
+            }
+            at += 6;
+            if *controlled {
+                spools[first + 6].push(&buf[at..at + 3])?;
+                spools[first + 7].push(&buf[at + 3..at + 6])?;
+                at += 6;
+            }
+        }
+        debug_assert_eq!(at, buf.len());
         let _ = back.send(buf);
     }
     Ok(spools)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Scenario;
+    use octoarm_control::Controller;
+    use octoarm_physics::Workspace;
+    use std::path::Path;
+
+    const ROD: &str = "[rod]\nn_elements = 4\nlength = 0.2\nbase_diameter = 0.02\ndensity = 700.0\n\
+                       youngs_modulus = 1e4\nshear_modulus = 1e3\n\n[time]\ndt = 1e-3\nduration = 1.0\n";
+
+    #[test]
+    fn figure_data_stays_bounded_while_every_frame_is_written() {
+        let scn = Scenario::from_str(Path::new("s.toml"), ROD).unwrap();
+        let (system, mut state) = crate::build::build_system(&scn).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let out = OutputDir::prepare(&dir.path().join("out")).unwrap();
+        let frames = 1000;
+        let mut rec = TrajectoryRecorder::new(&system, 1, frames, None, &out).unwrap();
+        rec.plot_cap = 64;
+        let ws = Workspace::new(&system, &state);
+        let mut controllers: Vec<Box<dyn Controller>> = Vec::new();
+        for k in 0..frames {
+            state.time = k as f64 * 1e-3;
+            let mut m = Moment {
+                steps: k as u64,
+                system: &system,
+                state: &state,
+                workspace: &ws,
+                controllers: &mut controllers,
+            };
+            rec.record(&mut m).unwrap();
+            assert!(rec.time.len() <= 65, "{}", rec.time.len());
+        }
+        let info = RunInfo {
+            duration: 1.0,
+            control: None,
+        };
+        let summary = rec.finish(&out, &info).unwrap();
+        assert_eq!(summary["frames"], frames);
+        assert_eq!(rec.frames(), frames);
+        // Evenly thinned (stride 16 after two halvings of 64), the last frame appended.
+        assert!(rec.time.len() <= 65);
+        assert_eq!(rec.time[1] - rec.time[0], 16e-3);
+        assert_eq!(*rec.time.last().unwrap(), 0.999);
+        assert_eq!(rec.series[0].len(), rec.time.len());
+        assert_eq!(rec.tips[0].len(), rec.time.len());
+        // trajectory.npz has every frame.
+        let time = crate::output::read_npz_vector(&out.path("trajectory.npz"), "time").unwrap();
+        assert_eq!(time.len(), frames);
+        assert_eq!(time[999], 0.999);
+        let e = crate::output::read_npz_vector(&out.path("trajectory.npz"), "energy_bend").unwrap();
+        assert_eq!(e.len(), frames);
+    }
 }

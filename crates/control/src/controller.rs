@@ -86,7 +86,32 @@ pub struct ControlReport {
     /// Online updates that failed (the previous design was kept).
     pub failed_updates: usize,
     /// (time [s], tip error [m] of the design in force after the update) of each online update.
+    /// At most `MAX_UPDATE_RECORDS` entries: beyond, neighbouring entries are merged into one
+    /// (the later time, the larger error), so that "the largest error at or after t" never
+    /// misses an update (it may include a few earlier ones).
     pub update_tip_errors: Vec<(f64, f64)>,
+}
+
+/// Most entries of `ControlReport::update_tip_errors` (memory does not grow with the run).
+pub const MAX_UPDATE_RECORDS: usize = 1 << 16;
+
+impl ControlReport {
+    /// Record the tip error of an online update, merging pairs of entries beyond
+    /// `MAX_UPDATE_RECORDS`.
+    pub fn push_update_tip_error(&mut self, time: f64, error: f64) {
+        let v = &mut self.update_tip_errors;
+        v.push((time, error));
+        if v.len() > MAX_UPDATE_RECORDS {
+            let merged: Vec<(f64, f64)> = v
+                .chunks(2)
+                .map(|c| {
+                    let last = c[c.len() - 1];
+                    (last.0, c.iter().map(|e| e.1).fold(f64::NAN, f64::max))
+                })
+                .collect();
+            *v = merged;
+        }
+    }
 }
 
 /// A controller of one rod of a system, updated by the run pipeline every `period()` seconds
@@ -607,7 +632,7 @@ impl Controller for ShapingController {
             match solver.update(&self.online_task) {
                 Ok(rep) => {
                     self.report.sweeps += rep.sweeps;
-                    self.report.update_tip_errors.push((t, rep.tip_error));
+                    self.report.push_update_tip_error(t, rep.tip_error);
                     if !rep.accepted {
                         self.report.failed_updates += 1;
                     }
@@ -689,4 +714,29 @@ fn grasp_continuation(
     let mut sol = last.expect("at least one stage");
     sol.report.sweeps = sweeps;
     Ok(sol)
+}
+
+#[cfg(test)]
+mod bounded_report_tests {
+    use super::*;
+
+    #[test]
+    fn update_tip_errors_stay_bounded_and_never_miss_a_late_large_error() {
+        let mut r = ControlReport::default();
+        let n = 3 * MAX_UPDATE_RECORDS + 17;
+        for k in 0..n {
+            let e = if k == n - 5 { 9.0 } else { 1e-3 };
+            r.push_update_tip_error(k as f64, e);
+            assert!(r.update_tip_errors.len() <= MAX_UPDATE_RECORDS);
+        }
+        let late = |t: f64| {
+            r.update_tip_errors
+                .iter()
+                .filter(|e| e.0 >= t)
+                .map(|e| e.1)
+                .fold(f64::NAN, f64::max)
+        };
+        assert_eq!(late((n - 5) as f64), 9.0);
+        assert_eq!(r.update_tip_errors.last().unwrap().0, (n - 1) as f64);
+    }
 }

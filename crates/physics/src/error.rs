@@ -99,7 +99,8 @@ pub(crate) fn finite_vec(field: &'static str, value: [f64; 3]) -> Result<[f64; 3
 pub enum StepError {
     /// A quantity became non-finite or left its admissible range.
     #[error(
-        "unstable: {what} = {value:e} at {}{domain} {index}, t = {time:.6} s (step {step}); {advice}",
+        "unstable: {what} = {} at {}{domain} {index}, t = {time:.6} s (step {step}); {advice}",
+        sig6(*.value),
         rod_prefix(.rod)
     )]
     Unstable {
@@ -125,6 +126,20 @@ pub enum StepError {
         /// What to change, in words (contains the suggested dt or a flag to set).
         advice: String,
     },
+}
+
+/// A value in scientific notation with at most 6 significant digits (`1.02e-1`, `inf`).
+fn sig6(v: f64) -> String {
+    if !v.is_finite() {
+        return format!("{v:e}");
+    }
+    let s = format!("{v:.5e}");
+    match s.split_once('e') {
+        Some((m, e)) if m.contains('.') => {
+            format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+        }
+        _ => s,
+    }
 }
 
 fn rod_prefix(rod: &Option<Box<str>>) -> String {

@@ -7,7 +7,7 @@
 use crate::ends::Side;
 use crate::error::{non_negative, ModelError};
 use crate::loads::ExternalLoads;
-use crate::math::{dot, log_relative, mat_mul, mat_vec, norm, transpose, Mat3, Vec3};
+use crate::math::{dot, log_relative, mat_mul, mat_vec, transpose, Mat3, Vec3};
 use crate::model::RodModel;
 
 /// What a joint constrains.
@@ -134,15 +134,18 @@ impl Joint {
     pub(crate) fn set_rest(&mut self, q1: &Mat3, q2: &Mat3) -> Result<(), ModelError> {
         self.rest = mat_mul(&transpose(q1), q2);
         if let JointKind::Hinge { axis } = self.kind {
-            let l = norm(axis);
-            if !(l.is_finite() && l > 0.0) {
-                return Err(ModelError::BadVector {
+            let l2 = dot(axis, axis);
+            let a = if l2.is_normal() && l2.is_finite() {
+                let l = l2.sqrt();
+                [axis[0] / l, axis[1] / l, axis[2] / l]
+            } else {
+                // Tiny or huge axes ([1e-300, 0, 0]): scaled by their largest component first.
+                crate::math::normalize(axis).ok_or(ModelError::BadVector {
                     field: "joint.axis",
                     value: axis,
                     reason: "must be finite and non-zero",
-                });
-            }
-            let a = [axis[0] / l, axis[1] / l, axis[2] / l];
+                })?
+            };
             self.axis_material = mat_vec(q1, a);
         }
         Ok(())

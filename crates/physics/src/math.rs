@@ -50,6 +50,27 @@ pub fn norm(a: Vec3) -> f64 {
     dot(a, a).sqrt()
 }
 
+/// The unit vector along `a`, or None for a zero or non-finite vector. Vectors whose squared
+/// norm is a normal number are divided by their plain norm (bit for bit `a / |a|`); tiny or huge
+/// ones (`[1e-300, 0, 0]`, `[1e200, 0, 0]`, whose squares underflow or overflow) are first
+/// scaled by their largest component.
+pub fn normalize(a: Vec3) -> Option<Vec3> {
+    if !a.iter().all(|c| c.is_finite()) {
+        return None;
+    }
+    let l2 = dot(a, a);
+    if l2.is_normal() && l2.is_finite() {
+        return Some(scale(1.0 / l2.sqrt(), a));
+    }
+    let m = a.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    if m == 0.0 {
+        return None;
+    }
+    // Divide (1/m overflows for subnormal m).
+    let b = [a[0] / m, a[1] / m, a[2] / m];
+    Some(scale(1.0 / norm(b), b))
+}
+
 /// Q a: lab → material components when Q is a director matrix.
 #[inline(always)]
 pub fn mat_vec(q: &Mat3, a: Vec3) -> Vec3 {
@@ -271,6 +292,21 @@ mod tests {
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
         ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+
+    #[test]
+    fn normalize_handles_tiny_huge_and_zero_vectors() {
+        assert_eq!(normalize([1e-300, 0.0, 0.0]), Some([1.0, 0.0, 0.0]));
+        assert_eq!(normalize([1e200, 0.0, 0.0]), Some([1.0, 0.0, 0.0]));
+        assert_eq!(normalize([0.0, -5e-320, 0.0]), Some([0.0, -1.0, 0.0]));
+        let u = normalize([3e-300, 4e-300, 0.0]).unwrap();
+        assert!((u[0] - 0.6).abs() < 1e-15 && (u[1] - 0.8).abs() < 1e-15);
+        assert_eq!(normalize([0.0; 3]), None);
+        assert_eq!(normalize([f64::NAN, 1.0, 0.0]), None);
+        assert_eq!(normalize([f64::INFINITY, 0.0, 0.0]), None);
+        // Ordinary vectors: exactly a / |a|.
+        let a = [0.3, -0.4, 1.2];
+        assert_eq!(normalize(a), Some(scale(1.0 / norm(a), a)));
     }
 
     fn random_vec(seed: &mut u64, max_norm: f64) -> Vec3 {

@@ -4,7 +4,7 @@
 //! evolving state to `state.rs`.
 
 use crate::error::{finite_vec, positive, ModelError};
-use crate::math::{cross, dot, norm, scale, Mat3, Vec3};
+use crate::math::{cross, dot, scale, Mat3, Vec3};
 use crate::state::RodState;
 use std::f64::consts::PI;
 
@@ -404,16 +404,11 @@ impl StraightRod {
 
 fn unit(field: &'static str, v: Vec3) -> Result<Vec3, ModelError> {
     finite_vec(field, v)?;
-    let l = norm(v);
-    if l > 0.0 && l.is_finite() {
-        Ok(scale(1.0 / l, v))
-    } else {
-        Err(ModelError::BadVector {
-            field,
-            value: v,
-            reason: "must have non-zero length",
-        })
-    }
+    crate::math::normalize(v).ok_or(ModelError::BadVector {
+        field,
+        value: v,
+        reason: "must have non-zero length",
+    })
 }
 
 #[cfg(test)]

@@ -663,11 +663,32 @@ struct Failure {
     rod: Option<usize>,
 }
 
+/// The quantity of a guard failure whose value left the range of float64 (an energy or the
+/// work of the loads): no time step helps.
+const ENERGY_OVERFLOW: &str = "total energy H [J] (not finite)";
+const WORK_OVERFLOW: &str = "external work or dissipated energy [J] (not finite)";
+
 fn unstable(system: &RodSystem, state: &SystemState, f: Failure) -> StepError {
     let dt = system.settings.dt;
     let suggested_dt = suggested_dt(system);
     let limit = system.stable_dt();
-    let advice = if dt > 0.2 * limit {
+    let advice = if f.what == ENERGY_OVERFLOW || f.what == WORK_OVERFLOW {
+        "an energy or the work of the loads overflows the range of float64 numbers: a rest strain \
+         (rest_curvature, rest_kappa, rest_sigma), a load value, a stiffness or a mass is far too \
+         large; reduce it (a smaller dt does not help)"
+            .to_string()
+    } else if !(suggested_dt.is_finite() && suggested_dt > 0.0) {
+        let shown = if limit == 0.0 {
+            "0".to_string()
+        } else {
+            format!("{limit:.3e}")
+        };
+        format!(
+            "the stable time step of this system is {shown} s: a stiffness, mass or inertia \
+             overflows or vanishes; check youngs_modulus, shear_modulus, density and the \
+             diameters (no time step can make it stable)"
+        )
+    } else if dt > 0.2 * limit {
         format!(
             "dt = {dt:e} s is above the recommended 0.2 × stable limit ({limit:.3e} s): reduce dt to {suggested_dt:e} s"
         )
@@ -848,6 +869,29 @@ pub fn check(system: &RodSystem, state: &SystemState, ws: &mut Workspace) -> Res
     }
     let h = total_energy(system, state, &mut ws.rest_sigma, &mut ws.rest_kappa);
     let work: f64 = state.work.iter().sum();
+    // Every part of H is non-negative: a finite H means finite recorded energies.
+    if !h.is_finite() {
+        return fail(Failure {
+            what: ENERGY_OVERFLOW,
+            value: h,
+            domain: "element",
+            index: 0,
+            zigzag: false,
+            rod: None,
+        });
+    }
+    if let Some(r) = (0..system.rods.len())
+        .find(|&r| !(state.work[r].is_finite() && state.dissipated[r].is_finite()))
+    {
+        return fail(Failure {
+            what: WORK_OVERFLOW,
+            value: state.work[r] + state.dissipated[r],
+            domain: "element",
+            index: 0,
+            zigzag: false,
+            rod: Some(r),
+        });
+    }
     let window_max = ws.guard.window.iter().copied().fold(0.0, f64::max);
     let bound = 100.0
         * ws.guard
@@ -870,4 +914,50 @@ pub fn check(system: &RodSystem, state: &SystemState, ws: &mut Workspace) -> Res
     ws.guard.window_pos = (ws.guard.window_pos + 1) % window_len;
     ws.guard.window[ws.guard.window_pos] = h;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{Settings, Simulation, StepError, StraightRod};
+
+    // A state that is finite and passes every rate check (dt is tiny) but whose kinetic energy
+    // overflows (an absurd density): the guard must stop it, with advice that does not suggest a time step.
+    #[test]
+    fn an_overflowing_energy_is_a_guard_failure() {
+        let mut arm = StraightRod::paper_arm();
+        arm.material.density = 1e300;
+        let (model, mut state) = arm.build().unwrap();
+        let settings = Settings {
+            dt: 1e-300,
+            ..Settings::default()
+        };
+        // |v| is finite, ½ m v² (m ~ 1e293 kg) is not.
+        for v in &mut state.velocity {
+            *v = [0.0, 1e10, 0.0];
+        }
+        let mut sim = Simulation::new(model, state, settings).unwrap();
+        let e = sim.check().unwrap_err();
+        let StepError::Unstable { what, advice, .. } = &e;
+        assert!(what.contains("total energy"), "{e}");
+        assert!(advice.contains("does not help"), "{e}");
+        assert!(!advice.contains("reduce dt to"), "{e}");
+    }
+
+    // A rod whose stable time step is 0 (a stiffness overflows the frequency estimate): the
+    // advice says what to change instead of "reduce dt to 0e0 s".
+    #[test]
+    fn no_time_step_advice_when_the_stable_step_vanishes() {
+        let mut arm = StraightRod::paper_arm();
+        arm.material.youngs_modulus = 1e308;
+        let (model, mut state) = arm.build().unwrap();
+        assert_eq!(model.stable_dt(), 0.0);
+        state.velocity[100] = [0.0, 1.0, 0.0];
+        let mut sim = Simulation::new(model, state, Settings::default()).unwrap();
+        let e = (0..1000)
+            .find_map(|_| sim.step().and_then(|()| sim.check()).err())
+            .expect("the guard fires");
+        let StepError::Unstable { advice, .. } = &e;
+        assert!(advice.contains("no time step can make it stable"), "{e}");
+        assert!(!advice.contains("reduce dt"), "{e}");
+    }
 }

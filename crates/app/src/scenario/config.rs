@@ -137,13 +137,13 @@ pub struct RodConfig {
     #[serde(default = "default_shear_coefficient")]
     pub shear_coefficient: f64,
     /// Position of node 0 [m]; default the origin.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "strict::vec3")]
     pub base_position: Vec3,
     /// d3 at rest (unit tangent, normalised); default [1, 0, 0].
-    #[serde(default = "default_direction")]
+    #[serde(default = "default_direction", deserialize_with = "strict::vec3")]
     pub direction: Vec3,
     /// d1 at rest, perpendicular to `direction`; default [0, 1, 0].
-    #[serde(default = "default_normal")]
+    #[serde(default = "default_normal", deserialize_with = "strict::vec3")]
     pub normal: Vec3,
     /// How the base is held; default "clamped".
     #[serde(default = "EndConfig::clamped")]
@@ -153,7 +153,7 @@ pub struct RodConfig {
     pub tip: EndConfig,
     /// Uniform rest curvature κ° [1/m], material frame (κ1, κ2, κ3); default 0. Shorthand for a
     /// uniform `rest_kappa`.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "strict::vec3")]
     pub rest_curvature: Vec3,
     /// Rest curvature/twist κ° [1/m] per interior node (material): a 3-vector (uniform), N − 1
     /// 3-vectors, or a piecewise-linear function of rest arc length `{ s = [...], value = [...] }`.
@@ -170,7 +170,7 @@ pub struct RodConfig {
 }
 
 /// A field along a rod given as one value, one value per entry, or a function of s.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Profile {
     /// The same 3-vector everywhere.
@@ -188,6 +188,7 @@ pub struct ProfileFunction {
     /// Rest arc lengths [m], strictly increasing.
     pub s: Vec<f64>,
     /// One 3-vector per s.
+    #[serde(deserialize_with = "strict::vec3_list")]
     pub value: Vec<Vec3>,
 }
 
@@ -206,7 +207,7 @@ pub enum EndKind {
 }
 
 /// An end condition: `"clamped"` or a table `{ kind = "driven", times, displacement, rotation }`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum EndConfig {
     /// Only the kind (not "driven").
@@ -245,10 +246,18 @@ pub struct EndTable {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub times: Option<Vec<f64>>,
     /// Displacement at each time [m]; default all zero.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "strict::opt_vec3_list"
+    )]
     pub displacement: Option<Vec<Vec3>>,
     /// Rotation vector at each time [rad]; default all zero.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "strict::opt_vec3_list"
+    )]
     pub rotation: Option<Vec<Vec3>>,
 }
 
@@ -439,6 +448,7 @@ pub struct LoadConfig {
     /// What the load is.
     pub kind: LoadKind,
     /// Vector value in the kind's unit, lab frame (material frame for follower couples).
+    #[serde(deserialize_with = "strict::vec3")]
     pub value: Vec3,
     /// The rod it acts on, by name; default the only rod (gravity: every rod).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -475,11 +485,12 @@ pub struct ObstacleConfig {
     /// What the obstacle is.
     pub kind: ObstacleKind,
     /// Centre at t = 0 [m].
+    #[serde(deserialize_with = "strict::vec3")]
     pub center: Vec3,
     /// Diameter [m], > 0.
     pub diameter: f64,
     /// Constant velocity of the centre [m/s]; default 0 (fixed).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "strict::vec3")]
     pub velocity: Vec3,
 }
 
@@ -507,7 +518,11 @@ pub struct JointConfig {
     /// The other end.
     pub second: String,
     /// Hinge axis, lab frame at t = 0 (hinge only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "strict::opt_vec3"
+    )]
     pub axis: Option<Vec3>,
     /// k [N/m], ≥ 0; default the softer end element's E Â/l̂.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -666,12 +681,13 @@ pub struct SolverConfig {
 #[serde(deny_unknown_fields)]
 pub struct TargetConfig {
     /// Target at time `from` [m], lab frame.
+    #[serde(deserialize_with = "strict::vec3")]
     pub position: Vec3,
     /// Start of this target [s], ≥ 0; default 0. Targets must be in time order.
     #[serde(default)]
     pub from: f64,
     /// Constant velocity [m/s]; default 0 (a static target).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "strict::vec3")]
     pub velocity: Vec3,
 }
 
@@ -681,6 +697,7 @@ pub struct TargetConfig {
 #[serde(deny_unknown_fields)]
 pub struct ViaPathConfig {
     /// Corner points [m], at least two.
+    #[serde(deserialize_with = "strict::vec3_list")]
     pub points: Vec<Vec3>,
     /// Time at the first point [s], ≥ 0; default 0.
     #[serde(default)]
@@ -695,6 +712,7 @@ pub struct ViaPathConfig {
 #[serde(deny_unknown_fields)]
 pub struct GraspConfig {
     /// Centre of the sphere [m].
+    #[serde(deserialize_with = "strict::vec3")]
     pub center: Vec3,
     /// Diameter of the sphere [m], > 0.
     pub diameter: f64,
@@ -702,7 +720,7 @@ pub struct GraspConfig {
     #[serde(default = "default_mu_tip")]
     pub mu_grasp: f64,
     /// Grasping interval as fractions of L0, `[a, 1.0]` with 0 ≤ a < 1; default [0.4, 1.0].
-    #[serde(default = "default_grasp_interval")]
+    #[serde(default = "default_grasp_interval", deserialize_with = "strict::vec2")]
     pub interval: [f64; 2],
 }
 
@@ -820,4 +838,274 @@ fn default_grasp_stages() -> usize {
 }
 fn default_grasp_interval() -> [f64; 2] {
     [0.4, 1.0]
+}
+
+impl<'de> Deserialize<'de> for Profile {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct ProfileVisitor;
+        impl<'de> Visitor<'de> for ProfileVisitor {
+            type Value = Profile;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "a 3-vector [x, y, z], an array of 3-vectors or a table \
+                     { s = [...], value = [[x, y, z], ...] }",
+                )
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Profile, A::Error> {
+                let mut entries = Vec::new();
+                while let Some(e) = seq.next_element::<strict::Loose>()? {
+                    entries.push(e);
+                }
+                if entries.is_empty() {
+                    return Ok(Profile::PerEntry(Vec::new()));
+                }
+                if entries.iter().all(|e| matches!(e, strict::Loose::Num(_))) {
+                    return strict::three(&entries)
+                        .map(Profile::Uniform)
+                        .map_err(de::Error::custom);
+                }
+                if entries.iter().all(|e| matches!(e, strict::Loose::Seq(_))) {
+                    let mut out = Vec::with_capacity(entries.len());
+                    for (i, e) in entries.iter().enumerate() {
+                        let strict::Loose::Seq(inner) = e else {
+                            unreachable!("checked above")
+                        };
+                        out.push(
+                            strict::three(inner)
+                                .map_err(|m| de::Error::custom(format!("entry [{i}]: {m}")))?,
+                        );
+                    }
+                    return Ok(Profile::PerEntry(out));
+                }
+                Err(de::Error::custom(format!(
+                    "expected 3 numbers [x, y, z] (uniform) or an array of 3-vectors \
+                     [[x, y, z], ...], found {}",
+                    strict::describe(&entries)
+                )))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Profile, A::Error> {
+                ProfileFunction::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(Profile::Function)
+            }
+        }
+        d.deserialize_any(ProfileVisitor)
+    }
+}
+
+impl<'de> Deserialize<'de> for EndConfig {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct EndVisitor;
+        impl<'de> Visitor<'de> for EndVisitor {
+            type Value = EndConfig;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "\"free\", \"pinned\", \"clamped\" or a table { kind = \"driven\", times = [...], \
+                     displacement = [...], rotation = [...] }",
+                )
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<EndConfig, E> {
+                use de::IntoDeserializer;
+                let found: Result<EndKind, E> = EndKind::deserialize(v.into_deserializer());
+                found.map(EndConfig::Kind).map_err(|_: E| {
+                    let kinds: Vec<String> = ["free", "pinned", "clamped", "driven"]
+                        .map(String::from)
+                        .to_vec();
+                    let hint = super::nearest(v, &kinds)
+                        .map(|k| format!("; did you mean \"{k}\"?"))
+                        .unwrap_or_default();
+                    E::custom(format!(
+                        "expected \"free\", \"pinned\", \"clamped\" or a table {{ kind = \"driven\", \
+                         times = [...], displacement = [...], rotation = [...] }}, found \"{v}\"{hint}"
+                    ))
+                })
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<EndConfig, A::Error> {
+                EndTable::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(EndConfig::Table)
+            }
+        }
+        d.deserialize_any(EndVisitor)
+    }
+}
+
+/// Strict fixed-length numeric arrays: a 3-vector is exactly 3 numbers (integers allowed), never
+/// cut or padded; anything else is an error saying so ("expected 3 numbers [x, y, z], found 6
+/// entries: 4 numbers, a string and a boolean"), which the TOML layer locates at the key.
+pub(crate) mod strict {
+    use super::Vec3;
+    use serde::de::{self, Deserialize, Deserializer, IgnoredAny, MapAccess, SeqAccess, Visitor};
+    use std::fmt;
+
+    /// One array entry as found: a number, an array, or something else (named).
+    pub(crate) enum Loose {
+        Num(f64),
+        Seq(Vec<Loose>),
+        Other(&'static str),
+    }
+
+    impl<'de> Deserialize<'de> for Loose {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct LooseVisitor;
+            impl<'de> Visitor<'de> for LooseVisitor {
+                type Value = Loose;
+                fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                    f.write_str("a number")
+                }
+                fn visit_f64<E: de::Error>(self, v: f64) -> Result<Loose, E> {
+                    Ok(Loose::Num(v))
+                }
+                fn visit_i64<E: de::Error>(self, v: i64) -> Result<Loose, E> {
+                    Ok(Loose::Num(v as f64))
+                }
+                fn visit_u64<E: de::Error>(self, v: u64) -> Result<Loose, E> {
+                    Ok(Loose::Num(v as f64))
+                }
+                fn visit_bool<E: de::Error>(self, _: bool) -> Result<Loose, E> {
+                    Ok(Loose::Other("a boolean"))
+                }
+                fn visit_str<E: de::Error>(self, _: &str) -> Result<Loose, E> {
+                    Ok(Loose::Other("a string"))
+                }
+                fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Loose, A::Error> {
+                    let mut v = Vec::new();
+                    while let Some(e) = seq.next_element::<Loose>()? {
+                        v.push(e);
+                    }
+                    Ok(Loose::Seq(v))
+                }
+                fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Loose, A::Error> {
+                    while map.next_entry::<IgnoredAny, IgnoredAny>()?.is_some() {}
+                    Ok(Loose::Other("a table"))
+                }
+            }
+            d.deserialize_any(LooseVisitor)
+        }
+    }
+
+    /// "6 entries: 4 numbers, a string and a boolean".
+    pub(crate) fn describe(entries: &[Loose]) -> String {
+        let nums = entries
+            .iter()
+            .filter(|e| matches!(e, Loose::Num(_)))
+            .count();
+        let arrays = entries
+            .iter()
+            .filter(|e| matches!(e, Loose::Seq(_)))
+            .count();
+        let mut parts = Vec::new();
+        match nums {
+            0 => {}
+            1 => parts.push("1 number".to_string()),
+            k => parts.push(format!("{k} numbers")),
+        }
+        match arrays {
+            0 => {}
+            1 => parts.push("an array".to_string()),
+            k => parts.push(format!("{k} arrays")),
+        }
+        for e in entries {
+            if let Loose::Other(what) = e {
+                if !parts.iter().any(|p| p == what) {
+                    parts.push(what.to_string());
+                }
+            }
+        }
+        let list = match parts.len() {
+            0 => String::new(),
+            1 => parts[0].clone(),
+            k => format!("{} and {}", parts[..k - 1].join(", "), parts[k - 1]),
+        };
+        let n = entries.len();
+        format!("{n} {}: {list}", if n == 1 { "entry" } else { "entries" })
+    }
+
+    fn exactly<const K: usize>(entries: &[Loose], shape: &str) -> Result<[f64; K], String> {
+        if entries.len() == K {
+            let mut out = [0.0; K];
+            let mut ok = true;
+            for (o, e) in out.iter_mut().zip(entries) {
+                match e {
+                    Loose::Num(v) => *o = *v,
+                    _ => ok = false,
+                }
+            }
+            if ok {
+                return Ok(out);
+            }
+        }
+        Err(format!(
+            "expected {K} numbers {shape}, found {}",
+            describe(entries)
+        ))
+    }
+
+    /// Exactly three numbers.
+    pub(crate) fn three(entries: &[Loose]) -> Result<Vec3, String> {
+        exactly::<3>(entries, "[x, y, z]")
+    }
+
+    struct Fixed<const K: usize>(&'static str);
+
+    impl<'de, const K: usize> Visitor<'de> for Fixed<K> {
+        type Value = [f64; K];
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            write!(f, "{K} numbers {}", self.0)
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<[f64; K], A::Error> {
+            let mut entries = Vec::new();
+            while let Some(e) = seq.next_element::<Loose>()? {
+                entries.push(e);
+            }
+            exactly::<K>(&entries, self.0).map_err(de::Error::custom)
+        }
+    }
+
+    /// `[x, y, z]`.
+    pub(crate) fn vec3<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+        d.deserialize_seq(Fixed::<3>("[x, y, z]"))
+    }
+
+    /// `[a, b]`.
+    pub(crate) fn vec2<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+        d.deserialize_seq(Fixed::<2>("[a, b]"))
+    }
+
+    /// An optional `[x, y, z]` (with `#[serde(default)]`).
+    pub(crate) fn opt_vec3<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec3>, D::Error> {
+        vec3(d).map(Some)
+    }
+
+    /// `[[x, y, z], ...]`, each entry exactly 3 numbers.
+    pub(crate) fn vec3_list<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Vec3>, D::Error> {
+        struct ListVisitor;
+        impl<'de> Visitor<'de> for ListVisitor {
+            type Value = Vec<Vec3>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an array of 3-vectors [[x, y, z], ...]")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<Vec3>, A::Error> {
+                let mut out = Vec::new();
+                while let Some(e) = seq.next_element::<Loose>()? {
+                    let i = out.len();
+                    let v = match &e {
+                        Loose::Seq(inner) => three(inner),
+                        other => Err(format!(
+                            "expected 3 numbers [x, y, z], found {}",
+                            describe(std::slice::from_ref(other)).trim_start_matches("1 entry: ")
+                        )),
+                    };
+                    out.push(v.map_err(|m| de::Error::custom(format!("entry [{i}]: {m}")))?);
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_seq(ListVisitor)
+    }
+
+    /// An optional `[[x, y, z], ...]` (with `#[serde(default)]`).
+    pub(crate) fn opt_vec3_list<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<Option<Vec<Vec3>>, D::Error> {
+        vec3_list(d).map(Some)
+    }
 }

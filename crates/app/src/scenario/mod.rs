@@ -10,11 +10,18 @@ pub mod validate;
 
 pub use config::*;
 pub use toml_errors::{key_span, line_col, nearest};
-pub use validate::{fmt_vec, MAX_ELEMENTS, MAX_RODS, MAX_STEPS, MAX_TOTAL_ELEMENTS};
+pub use validate::{
+    fmt_bytes, fmt_num, fmt_sci, fmt_vec, MAX_CLAIMS, MAX_ELEMENTS, MAX_ITEMS, MAX_LBFGS_BYTES,
+    MAX_OFFLINE_WORK, MAX_RODS, MAX_SAMPLES, MAX_STEPS, MAX_TOTAL_ELEMENTS, MAX_UPDATE_WORK,
+};
 
 use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+
+/// Largest scenario file read, 16 MiB (a scenario is a few kB; the cap keeps `/dev/zero` or a
+/// wrong file from being read into memory).
+pub const MAX_SCENARIO_BYTES: u64 = 16 << 20;
 
 /// A scenario that failed to load: unreadable, not TOML, unknown or missing keys, wrong types,
 /// or values outside their range. Display gives `file:line:col: …`.
@@ -84,10 +91,33 @@ impl Scenario {
     /// Read, parse, resolve and validate a scenario file. Every failure is a `ScenarioError`
     /// naming the file and, where possible, the line and key.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
-        let source = std::fs::read_to_string(path).map_err(|e| ScenarioError {
+        use std::io::Read;
+        let fail = |message: String| ScenarioError {
             file: path.to_path_buf(),
             line: None,
-            message: format!("cannot read the scenario file: {e}"),
+            message,
+        };
+        // Read at most one byte past the limit: `/dev/zero` or a huge file is refused, not
+        // read into memory.
+        let mut bytes = Vec::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_SCENARIO_BYTES + 1).read_to_end(&mut bytes))
+            .map_err(|e| fail(format!("cannot read the scenario file: {e}")))?;
+        if bytes.len() as u64 > MAX_SCENARIO_BYTES {
+            return Err(fail(format!(
+                "the scenario file is larger than {} MiB, the limit (a scenario is a few kB of \
+                 TOML; is this the right file?)",
+                MAX_SCENARIO_BYTES >> 20
+            )));
+        }
+        let source = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            let text = String::from_utf8_lossy(&e.as_bytes()[..at]).into_owned();
+            ScenarioError {
+                file: path.to_path_buf(),
+                line: Some(line_col(&text, at)),
+                message: "the scenario file is not UTF-8 text (a TOML file must be)".into(),
+            }
         })?;
         Self::from_str(path, &source)
     }
@@ -391,6 +421,121 @@ mod tests {
         let text = format!("{MINIMAL}\n[[load]]\nkind = \"gravity\"\nvalue = [0.0, 0.0, 0.0]\n[[load]]\nkind = \"tip_force\"\nvalue = [0.0, 1.0, 0.0]\n");
         let span = key_span(&text, "load[1].value").unwrap();
         assert_eq!(line_col(&text, span.start).0, 18);
+    }
+
+    #[test]
+    fn numbers_in_messages_have_at_most_six_significant_digits() {
+        for (v, shown) in [
+            (0.00001, "0.00001"),
+            (-0.2, "-0.2"),
+            (700.0, "700"),
+            (0.0, "0"),
+            (f64::NAN, "NaN"),
+            (1e300, "1e300"),
+            (-1e-300, "-1e-300"),
+            (1.0 / 3.0, "0.333333"),
+            (0.1 + 0.2, "0.3"),
+            (123456789.0, "1.23457e8"),
+            (999999.7, "1e6"),
+            (1e18, "1e18"),
+            (2.5e-5, "0.000025"),
+        ] {
+            assert_eq!(fmt_num(v), shown, "{v:e}");
+        }
+        assert_eq!(fmt_sci(1e-4), "1e-4");
+        assert_eq!(fmt_sci(1.0 / 3.0), "3.33333e-1");
+        assert_eq!(fmt_vec([1e300, 0.0, -1e-300]), "[1e300, 0, -1e-300]");
+        assert_eq!(fmt_bytes(19.28e12), "19.3 TB");
+        assert_eq!(fmt_bytes(546_000.0), "546 kB");
+        assert_eq!(fmt_bytes(999_999.0), "1.00 MB");
+        assert_eq!(fmt_bytes(2e9), "2.00 GB");
+        let e = load(&MINIMAL.replace("length = 0.2", "length = -1e300")).unwrap_err();
+        assert!(e.message.contains("rod.length = -1e300 is outside"), "{e}");
+    }
+
+    #[test]
+    fn vectors_are_exactly_three_numbers() {
+        let with_load = |value: &str| {
+            load(&format!(
+                "{MINIMAL}\n[[load]]\nkind = \"tip_force\"\nvalue = {value}\n"
+            ))
+        };
+        assert!(with_load("[0, 2e-5, 0]").is_ok());
+        for (value, found) in [
+            (
+                "[0, 2e-5, 0, 99, \"junk\", true]",
+                "6 entries: 4 numbers, a string and a boolean",
+            ),
+            ("[0, 2e-5, 0, 99]", "4 entries: 4 numbers"),
+            ("[0, 2e-5]", "2 entries: 2 numbers"),
+            ("[0, \"y\", 0]", "3 entries: 2 numbers and a string"),
+        ] {
+            let e = with_load(value).unwrap_err();
+            assert!(e.message.contains("load[0].value"), "{e}");
+            assert!(e.message.contains("3 numbers"), "{e}");
+            assert!(e.message.contains(found), "{e}");
+        }
+        // Lists of vectors name the entry.
+        let text = MINIMAL.replace(
+            "shear_modulus = 1e3",
+            "shear_modulus = 1e3\nrest_kappa = { s = [0.0, 0.1], value = [[0, 1, 0], [0, 1, 0, 7]] }",
+        );
+        let e = load(&text).unwrap_err();
+        assert!(
+            e.message
+                .contains("rod.rest_kappa.value: entry [1]: expected 3 numbers"),
+            "{e}"
+        );
+        let e = load(&format!(
+            "{MINIMAL}\n[[obstacle]]\nkind = \"sphere\"\ncenter = [0.1, 0.0]\ndiameter = 0.01\n"
+        ))
+        .unwrap_err();
+        assert!(
+            e.message.contains("obstacle[0].center: expected 3 numbers"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn tiny_and_huge_directions_are_directions() {
+        for d in ["[1e-300, 0, 0]", "[1e200, 0, 0]"] {
+            let s = load(&MINIMAL.replace(
+                "shear_modulus = 1e3",
+                &format!("shear_modulus = 1e3\ndirection = {d}"),
+            ))
+            .unwrap();
+            let (system, _) = crate::build::build_system(&s).unwrap();
+            assert_eq!(system.rods().len(), 1);
+        }
+        let e = load(&MINIMAL.replace(
+            "shear_modulus = 1e3",
+            "shear_modulus = 1e3\ndirection = [0, 0, 0]",
+        ))
+        .unwrap_err();
+        assert!(e.message.contains("non-zero"), "{e}");
+    }
+
+    #[test]
+    fn integer_keys_reject_floats_and_overflow_by_name() {
+        let e = load(&MINIMAL.replace("n_elements = 10", "n_elements = 1e18")).unwrap_err();
+        assert!(
+            e.message
+                .contains("rod.n_elements: expected a whole number"),
+            "{e}"
+        );
+        assert!(e.message.contains("found 1e18"), "{e}");
+        let e = load(&MINIMAL.replace("n_elements = 10", "n_elements = 100000000000000000000"))
+            .unwrap_err();
+        assert!(
+            e.message
+                .contains("rod.n_elements: the number is too large"),
+            "{e}"
+        );
+        let e = load(&format!(
+            "{MINIMAL}\n[load]\nkind = \"gravity\"\nvalue = [0, -9.81, 0]\n"
+        ))
+        .unwrap_err();
+        assert!(e.message.contains("[load] must be written [[load]]"), "{e}");
     }
 
     #[test]

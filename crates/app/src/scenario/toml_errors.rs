@@ -107,11 +107,26 @@ pub(crate) fn explain_toml_error(source: &str, e: &toml::de::Error) -> String {
         }
         return format!("missing required key `{name}`{where_}");
     }
+    if let Some(header) = e.span().and_then(|s| header_message(source, s.start)) {
+        return header;
+    }
     let key = e
         .span()
-        .and_then(|s| key_at(source, s.start))
+        .and_then(|s| key_at(source, s.start).or_else(|| key_on_line(source, s.start)))
         .map(|k| format!("{k}: "))
         .unwrap_or_default();
+    if let Some(found) = float_for_integer(&msg) {
+        return format!(
+            "{key}expected a whole number (an integer such as 100, without a decimal point or \
+             exponent), found {found}"
+        );
+    }
+    if msg.contains("number too large to fit in target type") {
+        return format!(
+            "{key}the number is too large to fit in an integer (at most 9223372036854775807; \
+             the allowed range of this key is far smaller)"
+        );
+    }
     if let Some(rest) = msg
         .split("did not match any variant of untagged enum ")
         .nth(1)
@@ -142,6 +157,87 @@ pub(crate) fn explain_toml_error(source: &str, e: &toml::de::Error) -> String {
         return format!("{key}{what}");
     }
     format!("{key}{msg}")
+}
+
+/// Sections that are arrays of tables (`[[load]]`) and sections that are single tables.
+const ARRAY_SECTIONS: [&str; 6] = ["rod", "load", "obstacle", "joint", "target", "acceptance"];
+const SINGLE_SECTIONS: [&str; 9] = [
+    "time",
+    "damping",
+    "numerics",
+    "contact",
+    "initial_state",
+    "controller",
+    "solver",
+    "via_path",
+    "grasp",
+];
+
+/// An error reported at a table header that uses the wrong brackets: `[load]` for the array
+/// `[[load]]`, `[[time]]` for the single table `[time]`.
+fn header_message(source: &str, at: usize) -> Option<String> {
+    let at = at.min(source.len());
+    let start = source[..at].rfind('\n').map_or(0, |i| i + 1);
+    let end = source[at..].find('\n').map_or(source.len(), |i| at + i);
+    let line = source[start..end].split('#').next().unwrap_or("").trim();
+    if let Some(inner) = line.strip_prefix("[[") {
+        let name = inner.trim_end_matches("]]").trim();
+        if SINGLE_SECTIONS.contains(&name) {
+            return Some(format!(
+                "[[{name}]] must be written [{name}]: a scenario has one [{name}] table, not an \
+                 array of them"
+            ));
+        }
+    } else if let Some(inner) = line.strip_prefix('[') {
+        let name = inner.trim_end_matches(']').trim();
+        if ARRAY_SECTIONS.contains(&name) && name != "rod" {
+            return Some(format!(
+                "[{name}] must be written [[{name}]]: {name} is an array of tables, one \
+                 [[{name}]] table per {name}"
+            ));
+        }
+    }
+    None
+}
+
+/// `section.key` from the text of the line holding byte `at` (when the file does not parse
+/// with spans, e.g. an integer too large for 64 bits).
+fn key_on_line(source: &str, at: usize) -> Option<String> {
+    let at = at.min(source.len());
+    let start = source[..at].rfind('\n').map_or(0, |i| i + 1);
+    let end = source[at..].find('\n').map_or(source.len(), |i| at + i);
+    let line = source[start..end].trim();
+    if line.starts_with('[') {
+        return None;
+    }
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    if key.is_empty() {
+        return None;
+    }
+    match section_of(source, start) {
+        Some(section) if !section.is_empty() => Some(format!("{section}.{key}")),
+        _ => Some(key.to_string()),
+    }
+}
+
+/// The float of "invalid type: floating point `1000000000000000000.0`, expected usize", shown
+/// with at most 6 significant digits.
+fn float_for_integer(msg: &str) -> Option<String> {
+    let rest = msg.split("invalid type: floating point `").nth(1)?;
+    let (number, tail) = rest.split_once('`')?;
+    let integer = ["usize", "u64", "u32", "u16", "u8", "i64", "i32"]
+        .iter()
+        .any(|t| tail.trim_start_matches(", expected ").starts_with(t));
+    if !integer {
+        return None;
+    }
+    Some(
+        number
+            .parse::<f64>()
+            .map(super::fmt_num)
+            .unwrap_or_else(|_| number.to_string()),
+    )
 }
 
 /// From "name`, expected one of `a`, `b`" get ("name", ["a", "b"]).

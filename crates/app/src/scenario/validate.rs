@@ -4,7 +4,6 @@
 
 use super::config::*;
 use super::Invalid;
-use std::fmt;
 
 /// Largest accepted element count per rod (memory and time grow with it; a typo guard).
 pub const MAX_ELEMENTS: usize = 100_000;
@@ -14,11 +13,113 @@ pub const MAX_TOTAL_ELEMENTS: usize = 1_000_000;
 pub const MAX_RODS: usize = 10_000;
 /// Largest accepted number of steps (a typo guard: 1e10 steps are days of computing).
 pub const MAX_STEPS: f64 = 1.0e10;
+/// Largest accepted number of `[[load]]`, `[[obstacle]]`, `[[joint]]` and `[[target]]` tables
+/// each (every one is evaluated at every step or update).
+pub const MAX_ITEMS: usize = 10_000;
+/// Largest accepted number of `[[acceptance]]` claims.
+pub const MAX_CLAIMS: usize = 1_000;
+/// Largest accepted number of samples of a schedule, a driven end's motion, a rest-strain
+/// profile `{ s, value }` or a via path.
+pub const MAX_SAMPLES: usize = 1_000_000;
+/// Largest accepted work of one online design update: `iterations_per_update` × (N + 1)
+/// node-iterations of the forward–backward sweep. Measured on the paper's arm (N = 100): 70 to
+/// 200 ns per node and sweep, an iteration taking one sweep or a few (line search), so at most
+/// about 2 to 10 s per update: a run always shows progress.
+pub const MAX_UPDATE_WORK: f64 = 2.0e7;
+/// Largest accepted work of the offline design solves before t = 0 in the worst case (every
+/// solve running to `max_sweeps`): designs × grasp stages × `max_sweeps` × (N + 1) node-sweeps,
+/// 2 to 6 hours at the rates above. Solves stop far earlier in practice (the paper's grasp,
+/// 4 stages: 4.4e6 node-sweeps, 0.3 s); the bound stops typos such as `grasp_stages = 1000` with
+/// `max_sweeps = 10000000`.
+pub const MAX_OFFLINE_WORK: f64 = 1.0e11;
+/// Largest accepted memory of the L-BFGS pairs, 16 × `lbfgs_memory` × (6N − 3) bytes.
+pub const MAX_LBFGS_BYTES: f64 = 1.0e9;
 
-pub(crate) fn bad(key: &str, value: impl fmt::Display, range: impl Into<String>) -> Invalid {
+/// A value as shown in a message: written as TOML would if that takes at most 6 significant
+/// digits and 12 characters (`0.00001`, `-0.2`, `700`, `NaN`), else rounded to 6 significant
+/// digits (`1e300`, `1.23457e-7`, `0.333333`). Never a 300-digit number.
+pub fn fmt_num(v: f64) -> String {
+    let plain = v.to_string();
+    if !v.is_finite() || v == 0.0 {
+        return plain;
+    }
+    let digits = plain
+        .trim_start_matches('-')
+        .replace('.', "")
+        .trim_start_matches('0')
+        .trim_end_matches('0')
+        .len();
+    if digits <= 6 && plain.len() <= 12 {
+        return plain;
+    }
+    let sci = format!("{v:.5e}");
+    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
+    let exp: i32 = exp.parse().unwrap_or(0);
+    if (-4..6).contains(&exp) {
+        let fixed = format!("{:.*}", (5 - exp) as usize, v);
+        if fixed.contains('.') {
+            return fixed
+                .trim_end_matches('0')
+                .trim_end_matches('.')
+                .to_string();
+        }
+        return fixed;
+    }
+    let mantissa = if mantissa.contains('.') {
+        mantissa.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        mantissa
+    };
+    format!("{mantissa}e{exp}")
+}
+
+/// A value in scientific notation as `{:e}` writes it (`1e-4`, `2.5e-5`), rounded to 6
+/// significant digits when it has more.
+pub fn fmt_sci(v: f64) -> String {
+    let full = format!("{v:e}");
+    let mantissa_digits = full
+        .split('e')
+        .next()
+        .unwrap_or("")
+        .trim_start_matches('-')
+        .replace('.', "")
+        .len();
+    if !v.is_finite() || mantissa_digits <= 6 {
+        return full;
+    }
+    let sci = format!("{v:.5e}");
+    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
+    let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+    format!("{mantissa}e{exp}")
+}
+
+/// A value of a message: numbers are shown by `fmt_num`, everything else as it displays.
+pub(crate) trait Shown {
+    /// The text of the value.
+    fn shown(&self) -> String;
+}
+
+impl Shown for f64 {
+    fn shown(&self) -> String {
+        fmt_num(*self)
+    }
+}
+
+macro_rules! shown_by_display {
+    ($($t:ty),*) => {$(
+        impl Shown for $t {
+            fn shown(&self) -> String {
+                self.to_string()
+            }
+        }
+    )*};
+}
+shown_by_display!(usize, u64, i64, String, &str, &String);
+
+pub(crate) fn bad(key: &str, value: impl Shown, range: impl Into<String>) -> Invalid {
     Invalid {
         key: key.to_string(),
-        value: value.to_string(),
+        value: value.shown(),
         range: range.into(),
     }
 }
@@ -36,9 +137,9 @@ fn bad_vec(key: &str, value: Vec3, range: impl Into<String>) -> Invalid {
     }
 }
 
-/// `[x, y, z]` as TOML writes it.
+/// `[x, y, z]` as TOML writes it, each component by `fmt_num`.
 pub fn fmt_vec(v: Vec3) -> String {
-    format!("[{}, {}, {}]", v[0], v[1], v[2])
+    format!("[{}, {}, {}]", fmt_num(v[0]), fmt_num(v[1]), fmt_num(v[2]))
 }
 
 pub(crate) fn positive(key: &str, v: f64) -> Result<(), Invalid> {
@@ -75,12 +176,8 @@ pub(crate) fn finite_vec(key: &str, v: Vec3) -> Result<(), Invalid> {
 
 fn unit_vec(key: &str, v: Vec3) -> Result<Vec3, Invalid> {
     finite_vec(key, v)?;
-    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    if l > 0.0 && l.is_finite() {
-        Ok([v[0] / l, v[1] / l, v[2] / l])
-    } else {
-        Err(bad_vec(key, v, "of non-zero vectors"))
-    }
+    // Scaled by the largest component first: [1e-300, 0, 0] and [1e200, 0, 0] are directions.
+    octoarm_physics::math::normalize(v).ok_or_else(|| bad_vec(key, v, "of non-zero vectors"))
 }
 
 fn count(key: &str, v: usize, lo: usize, hi: usize) -> Result<(), Invalid> {
@@ -91,13 +188,26 @@ fn count(key: &str, v: usize, lo: usize, hi: usize) -> Result<(), Invalid> {
     }
 }
 
+/// At most `max` entries (tables, samples, points) under `key`.
+fn at_most(key: &str, n: usize, max: usize, what: &str) -> Result<(), Invalid> {
+    if n <= max {
+        Ok(())
+    } else {
+        Err(bad(
+            key,
+            format!("{n} {what}"),
+            format!("of at most {max} {what}"),
+        ))
+    }
+}
+
 fn increasing(key: &str, t: &[f64]) -> Result<(), Invalid> {
     for (i, w) in t.windows(2).enumerate() {
         if w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater) {
             return Err(bad(
                 &format!("{key}[{}]", i + 1),
                 w[1],
-                format!("({key}[{i}] = {}, inf): strictly increasing", w[0]),
+                format!("({key}[{i}] = {}, inf): strictly increasing", fmt_num(w[0])),
             ));
         }
     }
@@ -179,23 +289,39 @@ impl ScenarioConfig {
             return Err(bad(
                 "time.duration",
                 t.duration,
-                format!("[time.dt = {:e}, inf), finite", t.dt),
+                format!("[time.dt = {}, inf), finite", fmt_sci(t.dt)),
             ));
         }
         if t.duration / t.dt > MAX_STEPS {
             return Err(bad(
                 "time.duration",
                 t.duration,
-                format!("of at most {MAX_STEPS:e} steps of dt = {:e} s", t.dt),
+                format!("of at most {MAX_STEPS:e} steps of dt = {} s", fmt_sci(t.dt)),
             ));
         }
         if !(t.save_interval.is_finite() && t.save_interval >= t.dt * (1.0 - 1e-9)) {
             return Err(bad(
                 "time.save_interval",
                 t.save_interval,
-                format!("[time.dt = {:e}, inf), finite", t.dt),
+                format!("[time.dt = {}, inf), finite", fmt_sci(t.dt)),
             ));
         }
+
+        at_most("load", self.loads.len(), MAX_ITEMS, "[[load]] tables")?;
+        at_most(
+            "obstacle",
+            self.obstacles.len(),
+            MAX_ITEMS,
+            "[[obstacle]] tables",
+        )?;
+        at_most("joint", self.joints.len(), MAX_ITEMS, "[[joint]] tables")?;
+        at_most("target", self.targets.len(), MAX_ITEMS, "[[target]] tables")?;
+        at_most(
+            "acceptance",
+            self.acceptance.len(),
+            MAX_CLAIMS,
+            "[[acceptance]] tables",
+        )?;
 
         non_negative("damping.rate", self.damping.rate)?;
         non_negative("damping.gamma", self.damping.gamma)?;
@@ -382,7 +508,11 @@ impl ScenarioConfig {
                 (None, Some(s)) => {
                     let l = length.unwrap_or(0.0);
                     if !(s.is_finite() && (0.0..=l).contains(&s)) {
-                        return Err(bad(&k("s"), s, format!("[0, {l}] m (the rod's length)")));
+                        return Err(bad(
+                            &k("s"),
+                            s,
+                            format!("[0, {}] m (the rod's length)", fmt_num(l)),
+                        ));
                     }
                 }
                 _ => {}
@@ -504,7 +634,7 @@ impl ScenarioConfig {
             return Err(bad(
                 "controller.series_interval",
                 ctrl.series_interval,
-                format!("[time.dt = {:e}, inf), finite", t.dt),
+                format!("[time.dt = {}, inf), finite", fmt_sci(t.dt)),
             ));
         }
         let r = self.find_rod("controller.rod", ctrl.rod.as_deref())?;
@@ -542,8 +672,9 @@ impl ScenarioConfig {
                     &format!("target[{i}].from"),
                     tg.from,
                     format!(
-                        "(target[{}].from = {last_from}, inf): targets in time order",
-                        i - 1
+                        "(target[{}].from = {}, inf): targets in time order",
+                        i - 1,
+                        fmt_num(last_from)
                     ),
                 ));
             }
@@ -563,15 +694,16 @@ impl ScenarioConfig {
                     "of at least 2 points",
                 ));
             }
-            for p in &v.points {
-                finite_vec("via_path.points", *p)?;
+            at_most("via_path.points", v.points.len(), MAX_SAMPLES, "points")?;
+            for (i, p) in v.points.iter().enumerate() {
+                finite_vec(&format!("via_path.points[{i}]"), *p)?;
             }
             non_negative("via_path.start", v.start)?;
             if !(v.end.is_finite() && v.end > v.start) {
                 return Err(bad(
                     "via_path.end",
                     v.end,
-                    format!("(via_path.start = {}, inf), finite", v.start),
+                    format!("(via_path.start = {}, inf), finite", fmt_num(v.start)),
                 ));
             }
         }
@@ -583,7 +715,7 @@ impl ScenarioConfig {
             if !(a.is_finite() && (0.0..1.0).contains(&a) && b == 1.0) {
                 return Err(bad(
                     "grasp.interval",
-                    format!("[{a}, {b}]"),
+                    format!("[{}, {}]", fmt_num(a), fmt_num(b)),
                     "[a, 1.0] with 0 <= a < 1 (the interval ends at the tip)",
                 ));
             }
@@ -620,13 +752,18 @@ impl ScenarioConfig {
             100_000,
         )?;
         count("solver.grasp_stages", sv.grasp_stages, 1, 1000)?;
+        self.validate_solver_work(rod)?;
         for (key, v) in [
             ("solver.update_interval", sv.update_interval),
             ("solver.ramp_interval", sv.ramp_interval),
         ] {
             let v = v.expect("resolve() fills the intervals");
             if !(v.is_finite() && v >= t.dt * (1.0 - 1e-9)) {
-                return Err(bad(key, v, format!("[time.dt = {:e}, inf), finite", t.dt)));
+                return Err(bad(
+                    key,
+                    v,
+                    format!("[time.dt = {}, inf), finite", fmt_sci(t.dt)),
+                ));
             }
         }
         if let Some(tf) = sv.trust_form_time {
@@ -638,6 +775,122 @@ impl ScenarioConfig {
         }
         Ok(())
     }
+}
+
+impl ScenarioConfig {
+    /// The solver's memory and work against their bounds (`MAX_LBFGS_BYTES`, `MAX_UPDATE_WORK`,
+    /// `MAX_OFFLINE_WORK`): no setting may make the controller allocate gigabytes or compute
+    /// for hours without the run showing progress.
+    fn validate_solver_work(&self, rod: &RodConfig) -> Result<(), Invalid> {
+        let Some(sv) = &self.solver else {
+            return Ok(());
+        };
+        let n = rod.n_elements;
+        let name = rod.name.as_deref().unwrap_or("rod");
+        let strains = (6 * n - 3) as f64;
+        if sv.rule == RuleKind::Lbfgs {
+            let bytes = 16.0 * sv.lbfgs_memory as f64 * strains;
+            if bytes > MAX_LBFGS_BYTES {
+                let max = (MAX_LBFGS_BYTES / (16.0 * strains)).floor().max(1.0) as usize;
+                return Err(bad(
+                    "solver.lbfgs_memory",
+                    sv.lbfgs_memory,
+                    format!(
+                        "[1, {max}] for the {n} elements of rod \"{name}\" (its L-BFGS pairs take \
+                         16 x memory x (6N - 3) bytes = {}, at most {})",
+                        fmt_bytes(bytes),
+                        fmt_bytes(MAX_LBFGS_BYTES)
+                    ),
+                ));
+            }
+        }
+        let nodes = (n + 1) as f64;
+        match sv.mode {
+            SolverModeKind::Online => {
+                let work = sv.iterations_per_update as f64 * nodes;
+                if work > MAX_UPDATE_WORK {
+                    let max = (MAX_UPDATE_WORK / nodes).floor().max(1.0) as usize;
+                    return Err(bad(
+                        "solver.iterations_per_update",
+                        sv.iterations_per_update,
+                        format!(
+                            "[1, {max}] for the {n} elements of rod \"{name}\": one update would take \
+                             {} node-iterations (at most {:e}, seconds of computing); use fewer \
+                             iterations per update or a shorter solver.update_interval",
+                            fmt_num(work),
+                            MAX_UPDATE_WORK
+                        ),
+                    ));
+                }
+            }
+            SolverModeKind::Offline => {
+                let designs = self.targets.len().max(1) as f64
+                    + self
+                        .via_path
+                        .as_ref()
+                        .map_or(0.0, |v| v.points.len() as f64 + 1.0);
+                let stages = if self.grasp.is_some() {
+                    sv.grasp_stages as f64
+                } else {
+                    1.0
+                };
+                let work = designs * stages * sv.max_sweeps as f64 * nodes;
+                if work > MAX_OFFLINE_WORK {
+                    // Blame the grasp stages when they are above their default of 4.
+                    let (key, value) = if stages > 4.0 {
+                        ("solver.grasp_stages", sv.grasp_stages)
+                    } else {
+                        ("solver.max_sweeps", sv.max_sweeps)
+                    };
+                    return Err(bad(
+                        key,
+                        value,
+                        format!(
+                            "of settings whose offline solves take at most {:e} node-sweeps before \
+                             t = 0 (hours): {} design(s) x {} grasp stage(s) x max_sweeps \
+                             {} x {} nodes = {}; lower solver.max_sweeps or solver.grasp_stages",
+                            MAX_OFFLINE_WORK,
+                            designs,
+                            stages,
+                            sv.max_sweeps,
+                            n + 1,
+                            fmt_num(work)
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Bytes in kB, MB, GB or TB with 3 significant digits (`19.3 GB`, `1.23 MB`).
+pub fn fmt_bytes(bytes: f64) -> String {
+    let (v, unit) = [(1e12, "TB"), (1e9, "GB"), (1e6, "MB"), (1e3, "kB")]
+        .into_iter()
+        .find(|(scale, _)| bytes >= *scale)
+        .map_or((bytes, "B"), |(scale, unit)| (bytes / scale, unit));
+    if unit == "B" {
+        return format!("{} B", bytes.round());
+    }
+    let decimals = if v >= 100.0 {
+        0
+    } else if v >= 10.0 {
+        1
+    } else {
+        2
+    };
+    let text = format!("{v:.decimals$}");
+    // 999.6 kB rounds to "1000 kB": say 1.00 MB.
+    if text.starts_with("1000") && unit != "TB" {
+        let next = match unit {
+            "kB" => "MB",
+            "MB" => "GB",
+            _ => "TB",
+        };
+        return format!("1.00 {next}");
+    }
+    format!("{text} {unit}")
 }
 
 fn validate_profile(key: &str, p: &Profile, entries: usize, length: f64) -> Result<(), Invalid> {
@@ -661,6 +914,7 @@ fn validate_profile(key: &str, p: &Profile, entries: usize, length: f64) -> Resu
             if f.s.is_empty() {
                 return Err(rule(&ks, "needs at least one sample"));
             }
+            at_most(&ks, f.s.len(), MAX_SAMPLES, "samples")?;
             if f.value.len() != f.s.len() {
                 return Err(bad(
                     &format!("{key}.value"),
@@ -670,7 +924,11 @@ fn validate_profile(key: &str, p: &Profile, entries: usize, length: f64) -> Resu
             }
             for (i, s) in f.s.iter().enumerate() {
                 if !(s.is_finite() && (0.0..=length).contains(s)) {
-                    return Err(bad(&format!("{ks}[{i}]"), s, format!("[0, {length}] m")));
+                    return Err(bad(
+                        &format!("{ks}[{i}]"),
+                        *s,
+                        format!("[0, {}] m", fmt_num(length)),
+                    ));
                 }
             }
             increasing(&ks, &f.s)?;
@@ -724,6 +982,7 @@ pub(crate) fn validate_schedule(key: &str, s: &ScheduleConfig) -> Result<(), Inv
             if times.is_empty() {
                 return Err(rule(&k("times"), "needs at least one sample"));
             }
+            at_most(&k("times"), times.len(), MAX_SAMPLES, "samples")?;
             if values.len() != times.len() {
                 return Err(bad(
                     &k("values"),
@@ -774,6 +1033,7 @@ fn validate_end(key: &str, e: &EndConfig) -> Result<(), Invalid> {
             if times.len() < 2 {
                 return Err(bad(&k("times"), times.len(), "of at least 2 samples"));
             }
+            at_most(&k("times"), times.len(), MAX_SAMPLES, "samples")?;
             if times[0] != 0.0 {
                 return Err(bad(
                     &format!("{}[0]", k("times")),
@@ -828,7 +1088,7 @@ fn validate_acceptance(i: usize, a: &AcceptanceConfig) -> Result<(), Invalid> {
         (true, Some(f), Some(t)) => {
             non_negative(&k("from"), f)?;
             if !(t.is_finite() && t >= f) {
-                return Err(bad(&k("to"), t, format!("[from = {f}, inf)")));
+                return Err(bad(&k("to"), t, format!("[from = {}, inf)", fmt_num(f))));
             }
         }
         (true, _, _) => {
