@@ -214,6 +214,46 @@ fn item3_a_run_above_the_output_limit_is_refused_with_the_estimate() {
 }
 
 #[test]
+fn item3_max_output_lowers_and_raises_the_limit_and_names_bad_sizes() {
+    // TINY writes well under 1 MB: refused below its estimate, run at or above it; `paper`
+    // takes the flag too. A bad size names the flag and what it accepts; nothing is written.
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("s.toml"), TINY).unwrap();
+    let o = octoarm(
+        &["run", "s.toml", "--out", "a", "--max-output", "1kB"],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    for needle in ["time.save_interval", "1.00 kB", "--max-output"] {
+        assert!(
+            stderr(&o).contains(needle),
+            "{needle:?} not in {}",
+            stderr(&o)
+        );
+    }
+    let o = octoarm(&["paper", "--out", "p", "--max-output", "1MiB"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--max-output"), "{}", stderr(&o));
+    for bad in ["12XB", "lots", "-5", "0", "1e400"] {
+        let o = octoarm(
+            &["run", "s.toml", "--out", "b", "--max-output", bad],
+            tmp.path(),
+        );
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--max-output"), "{bad}: {}", stderr(&o));
+    }
+    assert_eq!(listing(tmp.path()), BTreeSet::from(["s.toml".into()]));
+    for ok in ["1MB", "5e6", "unlimited"] {
+        let o = octoarm(
+            &["run", "s.toml", "--out", ok, "--max-output", ok, "-q"],
+            tmp.path(),
+        );
+        assert_eq!(o.status.code(), Some(0), "{ok}: {}", stderr(&o));
+        assert!(tmp.path().join(ok).join("trajectory.npz").is_file());
+    }
+}
+
+#[test]
 fn item2_a_run_of_a_billion_frames_neither_reserves_them_nor_grows() {
     // dt = 1e-4 s, duration = 1e5 s, a frame every step: 1e9 frames. It used to abort with
     // "memory allocation of 48000000048 bytes failed"; allowed to start, it now records in

@@ -803,15 +803,15 @@ pub fn check(system: &RodSystem, state: &SystemState, ws: &mut Workspace) -> Res
                 ));
             }
             let d = strain_dev(j);
+            // The signed component is reported (its sign tells compression from stretch).
+            const STRAIN: [&str; 3] = [
+                "shear strain σ₁ − σ°₁ (allowed [−0.5, 0.5])",
+                "shear strain σ₂ − σ°₂ (allowed [−0.5, 0.5])",
+                "stretch strain σ₃ − σ°₃ (allowed [−0.5, 0.5])",
+            ];
             for c in 0..3 {
                 if d[c].abs() > 0.5 {
-                    return fail(failure(
-                        "strain |σ − σ°| (allowed ≤ 0.5)",
-                        d[c],
-                        "element",
-                        j,
-                        zigzag(j, c),
-                    ));
+                    return fail(failure(STRAIN[c], d[c], "element", j, zigzag(j, c)));
                 }
             }
         }
