@@ -49,6 +49,8 @@ def main():
                       num_epochs=10, lr=3e-4, gamma=0.98, lambda_=0.95,
                       entropy_coeff=0.0, vf_clip_param=100.0)
             .rl_module(model_config={"fcnet_hiddens": [128, 128], "fcnet_activation": "tanh"})
+            # A loaded machine can take minutes per sample: do not give up on the env runner.
+            .env_runners(sample_timeout_s=1800)
             .debugging(seed=a.seed)
             .reporting(metrics_num_episodes_for_smoothing=20)
         )

@@ -201,7 +201,9 @@ impl Sweep {
         match result {
             Ok(Ok(())) => Ok(interrupted),
             Ok(Err(e)) => Err(PyOSError::new_err(format!("{e:#}"))),
-            Err(_) => Err(PyRuntimeError::new_err("the sweep's worker thread panicked")),
+            Err(_) => Err(PyRuntimeError::new_err(
+                "the sweep's worker thread panicked",
+            )),
         }
     }
 

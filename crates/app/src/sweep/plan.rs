@@ -1126,7 +1126,8 @@ mod tests {
 
     #[test]
     fn run_ids_depend_on_content_only() {
-        let a = "# a comment\n[time]\ndt = 1e-5\nduration = 1.0\n\n[rod]\nlength = 0.2\nname = \"x\"\n";
+        let a =
+            "# a comment\n[time]\ndt = 1e-5\nduration = 1.0\n\n[rod]\nlength = 0.2\nname = \"x\"\n";
         let b = "[rod]\nname = \"x\"\nlength = 0.20\n[time]\nduration = 1.0\ndt = 0.00001\n";
         assert_eq!(run_id(a), run_id(b));
         assert_eq!(run_id(a).len(), RUN_ID_LEN);
@@ -1157,23 +1158,26 @@ mod tests {
 
     #[test]
     fn ranges_hit_their_ends_and_log_ranges_are_geometric() {
-        let p = parameter("path = \"x\"\nrange = { start = 1e4, stop = 1e6, num = 3, scale = \"log\" }");
+        let p = parameter(
+            "path = \"x\"\nrange = { start = 1e4, stop = 1e6, num = 3, scale = \"log\" }",
+        );
         let (v, _) = values_of(&p, "parameter[0]", false, 0, 0).unwrap();
         let xs: Vec<f64> = v.iter().map(|x| x.as_float().unwrap()).collect();
         assert_eq!(xs[0], 1e4);
         assert_eq!(xs[2], 1e6);
         assert!((xs[1] / 1e5 - 1.0).abs() < 1e-12);
-        let p = parameter("path = \"x\"\nrange = { start = [0.0, 1.0], stop = [1.0, 1.0], num = 5 }");
+        let p =
+            parameter("path = \"x\"\nrange = { start = [0.0, 1.0], stop = [1.0, 1.0], num = 5 }");
         let (v, _) = values_of(&p, "parameter[0]", false, 0, 0).unwrap();
         assert_eq!(inline(&v[2]), "[0.5, 1]");
         // Whole-number keys get whole numbers, or an error naming the value.
         let p = parameter("path = \"n\"\nrange = { start = 10, stop = 40, num = 4 }");
         let (v, _) = values_of(&p, "parameter[0]", true, 0, 0).unwrap();
         assert_eq!(v, [10, 20, 30, 40].map(Value::Integer));
-        let p = parameter("path = \"n\"\nrange = { start = 10, stop = 40, num = 3 }");
+        let p = parameter("path = \"n\"\nrange = { start = 10, stop = 41, num = 3 }");
         let (k, m) = values_of(&p, "parameter[0]", true, 0, 0).unwrap_err();
         assert_eq!(k, "parameter[0].range.num");
-        assert!(m.contains("25"), "{m}");
+        assert!(m.contains("25.5"), "{m}");
     }
 
     #[test]
@@ -1181,7 +1185,9 @@ mod tests {
         let p = parameter("path = \"x\"\nrandom = { low = 2.0, high = 3.0, count = 1000 }");
         let draw = |seed, i| values_of(&p, "p", false, seed, i).unwrap().0;
         let v = draw(5, 0);
-        assert!(v.iter().all(|x| (2.0..3.0).contains(&x.as_float().unwrap())));
+        assert!(v
+            .iter()
+            .all(|x| (2.0..3.0).contains(&x.as_float().unwrap())));
         let mean = v.iter().map(|x| x.as_float().unwrap()).sum::<f64>() / 1000.0;
         // Uniform on [2, 3): mean 2.5, standard error 0.29 / sqrt(1000) = 0.009.
         assert!((mean - 2.5).abs() < 0.05, "{mean}");
