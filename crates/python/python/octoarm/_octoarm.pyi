@@ -375,14 +375,14 @@ def run_scenario(
 class Sweep:
     """A parameter sweep's plan and prepared output folder (``octoarm sweep``'s Rust code)."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         sweep_file: str | os.PathLike[str],
         out: str | os.PathLike[str] | None = None,
         *,
         resume: bool = False,
         duration: float | None = None,
-    ) -> None: ...
+    ) -> Sweep: ...
     @property
     def out(self) -> str: ...
     @property
