@@ -48,7 +48,18 @@ impl RayExecutor {
     pub fn start(python: &str, address: &str) -> Result<Self, RayUnavailable> {
         let unavailable = |m: String| RayUnavailable(format!("--ray {address}: {m}"));
         let mut child = Command::new(python)
-            .args(["-u", "-m", "octoarm.sweep", "serve", "--address", address])
+            // `-W ignore:::runpy`: `octoarm` imports its `sweep` module, which makes `-m` warn
+            // that the module was already imported; harmless here, and noise on stderr.
+            .args([
+                "-u",
+                "-W",
+                "ignore:::runpy",
+                "-m",
+                "octoarm.sweep",
+                "serve",
+                "--address",
+                address,
+            ])
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
