@@ -2,8 +2,9 @@
 //! scenario files (`scenario`), scenario → system and controllers (`build`, `initial`), the one
 //! run pipeline (`pipeline`), its recorders (`recorder`, `series`, `acceptance`) and the output
 //! files (`output`). With the `cli` feature (default), the command line's parts: figures
-//! (`figures`, `paper_figures`, `gif`, `plot`), progress bars (`progress`) and `octoarm paper`
-//! (`paper`). The physics lives in `octoarm-physics`, the control in `octoarm-control`.
+//! (`figures`, `paper_figures`, `gif`, `plot`, `sweep_figures`), progress bars (`progress`)
+//! and `octoarm paper` (`paper`). Parameter sweeps (`sweep`) are library code, shared with
+//! Python. The physics lives in `octoarm-physics`, the control in `octoarm-control`.
 
 pub mod acceptance;
 pub mod build;
@@ -15,6 +16,7 @@ pub mod pipeline;
 pub mod recorder;
 pub mod scenario;
 pub mod series;
+pub mod sweep;
 
 #[cfg(feature = "cli")]
 pub mod figures;
@@ -28,6 +30,8 @@ pub mod paper_figures;
 mod plot;
 #[cfg(feature = "cli")]
 pub mod progress;
+#[cfg(feature = "cli")]
+pub mod sweep_figures;
 
 use scenario::{fmt_num, fmt_sci, fmt_vec, Scenario, ScenarioError};
 use std::path::PathBuf;

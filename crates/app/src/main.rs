@@ -87,6 +87,48 @@ enum Command {
         #[arg(long, value_name = "SIZE", value_parser = parse_size, allow_negative_numbers = true)]
         max_output: Option<MaxOutput>,
     },
+    /// Run a parameter sweep: the base scenario named in SWEEP (a TOML file of [[parameter]]
+    /// tables: scenario key paths with lists, linear/log ranges or seeded random samples,
+    /// crossed or zipped) run once per combination, each into OUT/runs/<id>/ (id: a content
+    /// hash of the resolved scenario), with OUT/results.csv and results.npz (one row per run:
+    /// parameters, scalar results, status, error), OUT/sweep.json (the resolved plan) and
+    /// OUT/figures/.
+    ///
+    /// Runs on this machine's cores, or with --ray on a Ray cluster (through the Python
+    /// package). A run that fails is recorded and the others go on (exit code 1 at the end);
+    /// --resume continues an interrupted sweep, skipping its complete runs.
+    Sweep {
+        /// The sweep file (TOML).
+        sweep: PathBuf,
+        /// Output directory [default: results/<sweep file name without .toml>].
+        #[arg(short, long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Continue the sweep in OUT: runs whose folder is complete (same scenario hash) are
+        /// kept and skipped; the others run.
+        #[arg(long)]
+        resume: bool,
+        /// Worker threads of the local executor, 1 to 256 [default: the number of cores].
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=256), conflicts_with = "ray")]
+        threads: Option<u64>,
+        /// Run each scenario as a Ray task: "auto" (the running cluster, as `ray start` left
+        /// it or RAY_ADDRESS), "local" (a new Ray instance on this machine, for this sweep), or
+        /// a cluster address (HOST:PORT). Needs Python with the octoarm package and ray.
+        #[arg(long, value_name = "auto|local|ADDRESS")]
+        ray: Option<String>,
+        /// The Python interpreter of the Ray executor.
+        #[arg(long, value_name = "PATH", default_value = "python3")]
+        python: String,
+        /// Override [time] duration of every run, in simulated seconds.
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+        duration: Option<f64>,
+        /// Refuse a sweep whose outputs in total would exceed this size before compression (as
+        /// for `run`) [default: 2GB].
+        #[arg(long, value_name = "SIZE", value_parser = parse_size, allow_negative_numbers = true)]
+        max_output: Option<MaxOutput>,
+        /// Print the plan (runs, ids, parameter values, invalid combinations) and write nothing.
+        #[arg(long)]
+        plan: bool,
+    },
     /// Validate a scenario without running it; print the rod's stable time step, the number of
     /// steps and frames, and any warnings.
     Check {
@@ -195,6 +237,8 @@ fn main() -> ExitCode {
                 ExitCode::from((128 + i.signal) as u8)
             } else if e.downcast_ref::<ScenarioError>().is_some()
                 || e.downcast_ref::<OutputError>().is_some()
+                || e.downcast_ref::<octoarm::sweep::ray::RayUnavailable>()
+                    .is_some()
                 || e.downcast_ref::<clap::Error>().is_some()
             {
                 ExitCode::from(2)
@@ -238,6 +282,7 @@ fn load(path: &std::path::Path, duration: Option<f64>) -> Result<Scenario> {
 }
 
 fn run(cli: Cli) -> Result<()> {
+    let quiet = cli.quiet;
     match cli.command {
         Command::Check { scenario, duration } => {
             let scn = load(&scenario, duration)?;
@@ -300,6 +345,30 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::Sweep {
+            sweep,
+            out,
+            resume,
+            threads,
+            ray,
+            python,
+            duration,
+            max_output,
+            plan,
+        } => run_sweep(
+            quiet,
+            SweepArgs {
+                sweep,
+                out,
+                resume,
+                threads,
+                ray,
+                python,
+                duration,
+                max_output,
+                plan,
+            },
+        ),
         Command::Run {
             scenario,
             out,
@@ -370,4 +439,190 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// The arguments of `octoarm sweep`.
+struct SweepArgs {
+    sweep: PathBuf,
+    out: Option<PathBuf>,
+    resume: bool,
+    threads: Option<u64>,
+    ray: Option<String>,
+    python: String,
+    duration: Option<f64>,
+    max_output: Option<MaxOutput>,
+    plan: bool,
+}
+
+/// `octoarm sweep`: plan (every input error found before anything is written), connect the
+/// executor, prepare the folder, run, write the table, sweep.json and figures.
+fn run_sweep(quiet: bool, a: SweepArgs) -> Result<()> {
+    use octoarm::sweep::{self, Event, RunCheck, SweepDir, SweepPlan};
+    let wall = std::time::Instant::now();
+    let plan = SweepPlan::load(&a.sweep, a.duration)?;
+    // The outputs of all runs together against --max-output.
+    let limit = MaxOutput::bytes(a.max_output);
+    let mut total: u64 = 0;
+    let mut largest = 0u64;
+    for r in plan.runs.iter().filter(|r| r.check == RunCheck::Valid) {
+        let scn = plan.scenario(r.index)?;
+        let bytes = octoarm::estimate::estimate_output_bytes(&scn);
+        total = total.saturating_add(bytes);
+        largest = largest.max(bytes);
+    }
+    if total > limit {
+        return Err(ScenarioError {
+            file: a.sweep.clone(),
+            line: None,
+            message: format!(
+                "the sweep's runs would write about {} in all (the largest run {}), above the \
+                 limit of {} (--max-output): lower time.save_interval or --duration, sweep fewer \
+                 runs, or allow it with --max-output <bytes>",
+                octoarm::scenario::fmt_bytes(total as f64),
+                octoarm::scenario::fmt_bytes(largest as f64),
+                octoarm::scenario::fmt_bytes(limit as f64),
+            ),
+        }
+        .into());
+    }
+    let invalid: Vec<_> = plan
+        .runs
+        .iter()
+        .filter_map(|r| match &r.check {
+            RunCheck::Invalid(m) => Some((r.index, m)),
+            RunCheck::Valid => None,
+        })
+        .collect();
+    if a.plan {
+        println!(
+            "{}: {} runs of {} ({} invalid), outputs about {}",
+            a.sweep.display(),
+            plan.runs.len(),
+            plan.base.path.display(),
+            invalid.len(),
+            octoarm::scenario::fmt_bytes(total as f64)
+        );
+        for p in &plan.parameters {
+            println!(
+                "  {} ({}): {} values, group {}",
+                p.path,
+                p.how,
+                p.values.len(),
+                p.group
+            );
+        }
+        for r in &plan.runs {
+            let why = match &r.check {
+                RunCheck::Valid => String::new(),
+                RunCheck::Invalid(m) => format!("  INVALID: {m}"),
+            };
+            println!(
+                "  run {} {}: {}{why}",
+                r.index,
+                r.id,
+                plan.describe_choice(&r.choice)
+            );
+        }
+        return Ok(());
+    }
+    for (i, m) in &invalid {
+        tracing::warn!("run {i} is not a valid scenario (recorded as invalid): {m}");
+    }
+    // Ray is connected before the folder is touched: without it, nothing is written.
+    let mut executor = match &a.ray {
+        Some(address) => Some(sweep::ray::RayExecutor::start(&a.python, address)?),
+        None => None,
+    };
+    let target = a.out.unwrap_or_else(|| {
+        PathBuf::from("results").join(
+            a.sweep
+                .file_stem()
+                .map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned()),
+        )
+    });
+    let (dir, pending) = SweepDir::prepare(&target, &plan, a.resume)?;
+    let skipped = plan.runs.len() - invalid.len() - pending.len();
+    if skipped > 0 && !quiet {
+        eprintln!(
+            "--resume: {skipped} complete runs kept; running the other {}",
+            pending.len()
+        );
+    }
+    let bars = Progress::new(show_progress(quiet));
+    let bar = bars.sweep_bar(pending.len() as u64);
+    let on_event = |ev: Event<'_>| match ev {
+        Event::Started(_) => bar.started(),
+        Event::Finished(row) => {
+            bar.finished(row.completed());
+            if !row.completed() && row.status != "interrupted" && !quiet {
+                bar.suspend(|| {
+                    eprintln!(
+                        "run {} ({}) {}: {}",
+                        row.index, row.id, row.status, row.error
+                    )
+                });
+            }
+        }
+    };
+    let stop = install_signal_handlers();
+    let executor_json = match &mut executor {
+        Some(ex) => {
+            let info = serde_json::json!({"kind": "ray", "address": ex.address, "cpus": ex.cpus});
+            ex.run(&plan, &dir, &pending, Some(&stop), Some(&on_event))?;
+            info
+        }
+        None => {
+            let threads = a.threads.map_or_else(
+                || std::thread::available_parallelism().map_or(1, |n| n.get()),
+                |t| t as usize,
+            );
+            let opts = sweep::LocalOptions {
+                threads,
+                stop: Some(&stop),
+                events: Some(&on_event),
+            };
+            sweep::run_local(&plan, &dir, &pending, &opts)?;
+            serde_json::json!({"kind": "local", "threads": threads})
+        }
+    };
+    drop(executor);
+    bar.finish();
+    let (rows, counts) = dir.finish(&plan, executor_json, wall.elapsed().as_secs_f64())?;
+    let figures = octoarm::sweep_figures::draw(dir.root(), &plan, &rows);
+    if !figures.is_empty() {
+        dir.add_entries(&figures)?;
+    }
+    let signal = stop.load(std::sync::atomic::Ordering::Relaxed);
+    let summary = format!(
+        "{} runs: {} completed, {} failed, {} interrupted, {} not run",
+        counts.total, counts.completed, counts.failed, counts.interrupted, counts.not_run
+    );
+    if signal != 0 {
+        return Err(Interrupted {
+            message: format!(
+                "interrupted (signal {signal}): {summary}; results.csv in {} lists the runs that \
+                 ended; continue with --resume",
+                target.display()
+            ),
+            signal: signal as i32,
+        }
+        .into());
+    }
+    if counts.failed > 0 {
+        return Err(RunFailed {
+            message: format!(
+                "{summary}; results.csv in {} has each failed run's error",
+                target.display()
+            ),
+        }
+        .into());
+    }
+    if !quiet {
+        println!(
+            "wrote {} ({summary}) in {:.1} s",
+            target.display(),
+            wall.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
 }

@@ -66,10 +66,13 @@ impl Marker {
         })
     }
 
-    /// Write the marker into `dir`.
+    /// Write the marker into `dir`, through a temporary file and a rename: a marker that is
+    /// rewritten as a folder fills (a sweep's) is never seen half written.
     pub fn write(&self, dir: &Path) -> Result<()> {
         let path = dir.join(MARKER);
-        fs::write(&path, self.text()).with_context(|| format!("cannot write {}", path.display()))
+        let tmp = dir.join(format!("{MARKER}.partial-{}", std::process::id()));
+        fs::write(&tmp, self.text()).with_context(|| format!("cannot write {}", tmp.display()))?;
+        fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))
     }
 }
 
@@ -194,7 +197,7 @@ pub fn remove_owned(dir: &Path) -> Result<()> {
 }
 
 /// Whether process `pid` is alive (Linux: /proc; elsewhere assumed alive).
-fn alive(pid: u32) -> bool {
+pub(crate) fn alive(pid: u32) -> bool {
     if cfg!(target_os = "linux") {
         Path::new(&format!("/proc/{pid}")).exists()
     } else {
@@ -205,7 +208,7 @@ fn alive(pid: u32) -> bool {
 /// Remove `.NAME.partial-PID` / `.NAME.old-PID` siblings of `target` left by dead processes
 /// (only folders with octoarm's marker, and only what the marker lists — for partial folders,
 /// which only octoarm writes into, everything).
-fn clean_stale(parent: &Path, name: &str) {
+pub(crate) fn clean_stale(parent: &Path, name: &str) {
     let Ok(list) = fs::read_dir(parent) else {
         return;
     };

@@ -1,6 +1,6 @@
-//! Progress bars on stderr for `octoarm run` (passive and controlled) and `octoarm paper`: one
-//! set of bars that stays hidden until the command has run for a second, so that short runs print
-//! nothing. Whether to show them at all (stderr a terminal, no `--quiet`) is the caller's choice;
+//! Progress bars on stderr for `octoarm run` (passive and controlled), `octoarm paper` and
+//! `octoarm sweep`: one set of bars that stays hidden until the command has run for a second, so
+//! that short runs print nothing. Whether to show them at all (stderr a terminal, no `--quiet`) is the caller's choice;
 //! what is being run is not this module's business.
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -111,5 +111,80 @@ impl Drop for RunBar {
     // A run that ends early (an error before its first step) must not leave a stale bar behind.
     fn drop(&mut self) {
         self.finish();
+    }
+}
+
+/// The bar of a sweep: runs ended out of the total, with done / failed / running / remaining
+/// counts and an ETA.
+#[derive(Debug)]
+pub struct SweepBar {
+    bar: Option<ProgressBar>,
+    progress: Progress,
+    counts: std::sync::Mutex<[u64; 3]>,
+    total: u64,
+}
+
+impl Progress {
+    /// A bar for a sweep of `total` runs to execute.
+    pub fn sweep_bar(&self, total: u64) -> SweepBar {
+        let bar = self.multi.as_ref().map(|multi| {
+            let bar = ProgressBar::new(total).with_style(
+                ProgressStyle::with_template(
+                    "{elapsed_precise} [{wide_bar}] {pos}/{len} runs  {msg}  eta {eta}",
+                )
+                .expect("a valid template")
+                .progress_chars("=> "),
+            );
+            multi.add(bar)
+        });
+        SweepBar {
+            bar,
+            progress: self.clone(),
+            counts: std::sync::Mutex::new([0; 3]),
+            total,
+        }
+    }
+}
+
+impl SweepBar {
+    fn update(&self, f: impl FnOnce(&mut [u64; 3])) {
+        let mut c = self.counts.lock().unwrap_or_else(|p| p.into_inner());
+        f(&mut c);
+        let [done, failed, running] = *c;
+        if let Some(bar) = &self.bar {
+            if self.progress.reveal() {
+                let remaining = self.total.saturating_sub(done + failed + running);
+                bar.set_message(format!(
+                    "done {done}, failed {failed}, running {running}, remaining {remaining}"
+                ));
+                bar.set_position(done + failed);
+            }
+        }
+    }
+
+    /// A run started.
+    pub fn started(&self) {
+        self.update(|c| c[2] += 1);
+    }
+
+    /// A run ended, completed (`ok`) or not.
+    pub fn finished(&self, ok: bool) {
+        self.update(|c| {
+            c[usize::from(!ok)] += 1;
+            c[2] = c[2].saturating_sub(1);
+        });
+    }
+
+    /// Run `f` (which prints to stderr) with the bars cleared.
+    pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        self.progress.suspend(f)
+    }
+
+    /// Remove the bar.
+    pub fn finish(&self) {
+        if let (Some(bar), Some(multi)) = (&self.bar, &self.progress.multi) {
+            bar.finish_and_clear();
+            multi.remove(bar);
+        }
     }
 }

@@ -7,7 +7,8 @@
 //! Modules: `arrays` (NumPy conversion and shape checks), `system` (the rod-system description
 //! classes `Rod`, `Motion`, `Joint`), `rod` (`Simulation`: one rod or a system of rods, its
 //! state, loads, damping, rest strains and pickling), `control` (solver, design, energy-shaping
-//! law), `env` (`ArmBatch`), `scenario` (`run_scenario`).
+//! law), `env` (`ArmBatch`), `scenario` (`run_scenario`), `sweep` (`Sweep`: a parameter
+//! sweep's plan and folder, for `octoarm.sweep`).
 
 // `octoarm_physics::StepError` (≥ 128 bytes: it names the rod and carries advice) is passed
 // through as it is, once per failed run; boxing it here would only add a conversion.
@@ -24,6 +25,7 @@ mod control;
 mod env;
 mod rod;
 mod scenario;
+mod sweep;
 mod system;
 
 create_exception!(
@@ -104,6 +106,7 @@ fn _octoarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<control::OfflineSolver>()?;
     m.add_class::<control::EnergyShapingController>()?;
     m.add_class::<env::ArmBatch>()?;
+    m.add_class::<sweep::Sweep>()?;
     m.add_function(wrap_pyfunction!(rod::rust_step_rate, m)?)?;
     m.add_function(wrap_pyfunction!(rod::simulation_from_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::run_scenario, m)?)?;

@@ -36,16 +36,25 @@ const SIGINT: usize = 2;
 /// their `report` attribute (status "unstable" / "failed"). Ctrl-C stops the run at the current
 /// step: what was recorded is written (status "interrupted") and `KeyboardInterrupt` is raised
 /// with the report attached.
+///
+/// `source`, if given, is the scenario's text: `path` then only names it (messages, the
+/// default output folder, `scenario.toml`'s header, relative file references) and is not read.
+/// A sweep's Ray workers run each scenario this way.
 #[pyfunction]
-#[pyo3(signature = (path, out_dir = None, duration = None))]
+#[pyo3(signature = (path, out_dir = None, duration = None, *, source = None))]
 pub fn run_scenario<'py>(
     py: Python<'py>,
     path: PathBuf,
     out_dir: Option<PathBuf>,
     duration: Option<f64>,
+    source: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let bad = |e: &dyn std::fmt::Display| PyValueError::new_err(e.to_string());
-    let mut scn = Scenario::load(&path).map_err(|e| bad(&e))?;
+    let mut scn = match &source {
+        Some(text) => Scenario::from_str(&path, text),
+        None => Scenario::load(&path),
+    }
+    .map_err(|e| bad(&e))?;
     if let Some(d) = duration {
         octoarm_app::override_duration(&mut scn, d).map_err(|e| bad(&e))?;
     }

@@ -241,7 +241,7 @@ fn float_for_integer(msg: &str) -> Option<String> {
 }
 
 /// From "name`, expected one of `a`, `b`" get ("name", ["a", "b"]).
-fn split_unknown(rest: &str) -> (String, Vec<String>) {
+pub(crate) fn split_unknown(rest: &str) -> (String, Vec<String>) {
     let (name, tail) = rest.split_once('`').unwrap_or((rest, ""));
     let expected = tail
         .split('`')

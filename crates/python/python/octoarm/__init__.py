@@ -14,6 +14,8 @@ because stepping rewrites it with the GIL released.
   "rod.tip").
 * :class:`OfflineSolver`, :class:`Design`, :class:`EnergyShapingController`: the controller.
 * :func:`run_scenario`: ``octoarm run`` on a scenario file, passive or controlled.
+* ``octoarm.sweep(sweep_file, out, ray=None)``: ``octoarm sweep``, locally or on a Ray cluster
+  (:mod:`octoarm.sweep`; :class:`Sweep` is its Rust core).
 
 Array arguments take any real dtype (converted to float64) of exactly the stated shape, with
 finite entries. Objects can be shared between threads: calls are serialised (a reader waits for
@@ -34,6 +36,7 @@ from ._octoarm import (  # noqa: F401
     OfflineSolver,
     Rod,
     Simulation,
+    Sweep,
     __version__,
     run_scenario,
     rust_step_rate,
@@ -49,6 +52,7 @@ __all__ = [
     "OfflineSolver",
     "Rod",
     "Simulation",
+    "Sweep",
     "__version__",
     "run_scenario",
     "rust_step_rate",
@@ -70,3 +74,4 @@ def _register() -> None:
 _register()
 
 from . import env  # noqa: E402,F401  (ArmReachEnv, ArmReachVectorEnv)
+from . import sweep  # noqa: E402,F401  (callable: octoarm.sweep(...) runs a sweep)

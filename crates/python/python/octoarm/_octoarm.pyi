@@ -27,6 +27,7 @@ __all__ = [
     "_simulation_from_bytes",
     "run_scenario",
     "rust_step_rate",
+    "Sweep",
 ]
 
 _F64 = npt.NDArray[np.float64]
@@ -366,4 +367,31 @@ def run_scenario(
     path: str | os.PathLike[str],
     out_dir: str | os.PathLike[str] | None = None,
     duration: float | None = None,
+    *,
+    source: str | None = None,
 ) -> dict[str, Any]: ...
+
+@final
+class Sweep:
+    """A parameter sweep's plan and prepared output folder (``octoarm sweep``'s Rust code)."""
+
+    def __new__(
+        cls,
+        sweep_file: str | os.PathLike[str],
+        out: str | os.PathLike[str] | None = None,
+        *,
+        resume: bool = False,
+        duration: float | None = None,
+    ) -> Sweep: ...
+    @property
+    def out(self) -> str: ...
+    @property
+    def n_runs(self) -> int: ...
+    @property
+    def pending(self) -> list[int]: ...
+    def run_source(self, index: int) -> tuple[str, str, str]: ...
+    def stage_dir(self) -> str: ...
+    def commit_staged(self, index: int, staged: str | os.PathLike[str]) -> dict[str, Any]: ...
+    def record_failure(self, index: int, status: str, message: str) -> dict[str, Any]: ...
+    def run_local(self, threads: int | None = None) -> bool: ...
+    def finish(self, executor: str) -> dict[str, Any]: ...
