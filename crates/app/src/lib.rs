@@ -2,8 +2,8 @@
 //! scenario files (`scenario`), scenario → system and controllers (`build`, `initial`), the one
 //! run pipeline (`pipeline`), its recorders (`recorder`, `series`, `acceptance`) and the output
 //! files (`output`). With the `cli` feature (default), the command line's parts: figures
-//! (`figures`, `paper_figures`, `gif`, `plot`), progress bars (`progress`) and `octoarm paper`
-//! (`paper`). The physics lives in `octoarm-physics`, the control in `octoarm-control`.
+//! (`figures`, `paper_figures`, `projection`, `gif`, `plot`), progress bars (`progress`),
+//! `octoarm paper` (`paper`) and the live viewer's recorder (`live`). The physics lives in `octoarm-physics`, the control in `octoarm-control`.
 
 pub mod acceptance;
 pub mod build;
@@ -21,6 +21,8 @@ pub mod figures;
 #[cfg(feature = "cli")]
 pub mod gif;
 #[cfg(feature = "cli")]
+pub mod live;
+#[cfg(feature = "cli")]
 pub mod paper;
 #[cfg(feature = "cli")]
 pub mod paper_figures;
@@ -28,6 +30,8 @@ pub mod paper_figures;
 mod plot;
 #[cfg(feature = "cli")]
 pub mod progress;
+#[cfg(feature = "cli")]
+pub mod projection;
 
 use scenario::{fmt_num, fmt_sci, fmt_vec, Scenario, ScenarioError};
 use std::path::PathBuf;
