@@ -171,7 +171,11 @@ fn render_arm(arm: &Arm, width: usize, height: usize) -> octoarm_viewer::raster:
     let line = view.len_px(0.0004).max(1.0);
     for k in -4i32..=4 {
         let at = 0.05 * k as f64;
-        let shade = if k == 0 { [205, 205, 205] } else { [228, 228, 228] };
+        let shade = if k == 0 {
+            [205, 205, 205]
+        } else {
+            [228, 228, 228]
+        };
         let [x, _] = view.to_px([at, 0.0]);
         img.fill_rect(x - 0.5 * line, x + 0.5 * line, 0.0, height as f64, shade);
         let [_, y] = view.to_px([0.0, at]);

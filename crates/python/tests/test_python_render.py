@@ -51,7 +51,7 @@ def test_frames_have_the_shape_and_show_the_arm_where_it_is():
     assert d.max() <= 0.01 * scale + 2, "purple pixels away from the arm"
     # The target is red where it is.
     tc, tr = to_px([0.1, 0.12], 320, 240)
-    assert tuple(later[int(tr) + 3, int(tc)]) == (220, 20, 30)
+    assert tuple(later[int(tr) + 2, int(tc)]) == (220, 20, 30)
     assert env.render() is not None and ArmReachEnv().render() is None
 
 

@@ -35,11 +35,12 @@ def test_unsupported_keyword_arguments_raise_type_error(make):
 
 def test_gym_make_with_render_mode_raises_type_error_and_falls_back():
     """What SB3's make_vec_env does: try a render mode, on TypeError retry without. An
-    unsupported mode raises TypeError; "rgb_array" is supported (issue 15)."""
+    unsupported mode raises TypeError; "rgb_array" is supported (issue 15). ("human" is too,
+    through Gymnasium's HumanRendering wrapper over "rgb_array".)"""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         with pytest.raises(TypeError, match="render_mode"):
-            gym.make("octoarm/ArmReach-v0", render_mode="human")
+            gym.make("octoarm/ArmReach-v0", render_mode="ansi")
     env = gym.make("octoarm/ArmReach-v0")
     assert env.render_mode is None and env.metadata["render_modes"] == ["rgb_array"]
     env = gym.make("octoarm/ArmReach-v0", render_mode="rgb_array")

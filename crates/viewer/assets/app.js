@@ -473,10 +473,12 @@ function setView(kind) {
   controls.update();
   sun.position.set(c[0] + dir[0] * dist + up[0] * dist, c[1] + dir[1] * dist + up[1] * dist, c[2] + dir[2] * dist + up[2] * dist);
   if (grid) world.remove(grid);
-  const size = Math.pow(10, Math.ceil(Math.log10(state.extent * 2)));
-  grid = new THREE.GridHelper(size, 20, 0xcccccc, 0xe6e6e6);
-  if (state.planar || kind === 'xy') { grid.rotation.x = Math.PI / 2; grid.position.set(c[0], c[1], lo[2] - 0.05 * state.extent); }
-  else { grid.position.set(c[0], c[1], lo[2] - 0.05 * state.extent); grid.rotation.x = Math.PI / 2; }
+  // A grid twice the run's extent, lines every 10^k m (about 10 to 100 of them).
+  const gstep = Math.pow(10, Math.floor(Math.log10((2 * state.extent) / 10)));
+  const gdiv = Math.max(2, Math.ceil((2 * state.extent) / gstep));
+  grid = new THREE.GridHelper(gdiv * gstep, gdiv, 0xcccccc, 0xe6e6e6);
+  grid.rotation.x = Math.PI / 2;
+  grid.position.set(c[0], c[1], lo[2] - 0.05 * state.extent);
   world.add(grid);
   state.view = kind;
   if (state.frames.length) showFrame(state.index); else render();
