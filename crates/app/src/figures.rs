@@ -66,6 +66,13 @@ pub fn shapes_png(
             hi[c] = hi[c].max(p[c]);
         }
     }
+    let all_points = shapes
+        .iter()
+        .flat_map(|(_, rods)| rods.iter().flatten())
+        .chain(rec.tips.iter().flatten());
+    if crate::projection::is_three_dimensional(all_points) {
+        return shapes_png_3d(path, rec, obstacles, bases, title, &pick, t0, t1);
+    }
     let mut order = [0usize, 1, 2];
     order.sort_by(|&a, &b| (hi[b] - lo[b]).total_cmp(&(hi[a] - lo[a])).then(a.cmp(&b)));
     let (ax, ay) = if order[0] < order[1] {
@@ -146,9 +153,76 @@ pub fn shapes_png(
             .legend(|(x, y)| Circle::new((x, y), 4, BLACK.filled()));
     }
     legend(&mut chart, SeriesLabelPosition::UpperRight, 16, 0.8)?;
+    colour_bar(&bar, margin, xlab, t0, span)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
 
-    // Colour bar: time of each centreline.
-    let mut cb = ChartBuilder::on(&bar)
+/// `shapes.png` of a run leaving the plane: the centrelines (coloured by time), tip paths,
+/// obstacles and held bases in three orthographic projections and a perspective view.
+#[allow(clippy::too_many_arguments)]
+fn shapes_png_3d(
+    path: &Path,
+    rec: &Recorder,
+    obstacles: &[Sphere],
+    bases: &[[f64; 3]],
+    title: &str,
+    pick: &[usize],
+    t0: f64,
+    t1: f64,
+) -> Result<()> {
+    use crate::projection::{draw_four_views, Scene3, Stroke};
+    let span = if t1 > t0 { t1 - t0 } else { 1.0 };
+    let mut scene = Scene3::default();
+    for tips in &rec.tips {
+        scene.strokes.push(Stroke {
+            points: tips.clone(),
+            colours: vec![RGBColor(150, 150, 150)],
+            width: 1.0,
+        });
+    }
+    for &i in pick {
+        let (t, rods) = &rec.shapes[i];
+        let colour = viridis((t - t0) / span);
+        for x in rods {
+            scene.strokes.push(Stroke {
+                points: x.clone(),
+                colours: vec![colour],
+                width: 2.0,
+            });
+        }
+    }
+    for o in obstacles {
+        scene
+            .balls
+            .push((o.center, o.radius, RGBColor(200, 200, 200)));
+    }
+    for b in bases {
+        scene.dots.push((*b, BLACK));
+    }
+    let width = 1200u32;
+    let root = png_canvas(
+        path,
+        (width, 1000),
+        &format!("{title}: centrelines (3D)"),
+        26,
+    )?;
+    let (main, bar) = root.split_horizontally(width - 130);
+    draw_four_views(&main, &scene, 16)?;
+    colour_bar(&bar, 20, 55, t0, span)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// The colour bar of the centrelines' times [t0, t0 + span] (viridis).
+fn colour_bar(
+    bar: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    margin: u32,
+    xlab: u32,
+    t0: f64,
+    span: f64,
+) -> Result<()> {
+    let mut cb = ChartBuilder::on(bar)
         .margin_top(margin + 10)
         .margin_bottom(margin + xlab)
         .margin_right(55)
@@ -176,7 +250,6 @@ pub fn shapes_png(
         )
     }))
     .map_err(err)?;
-    root.present().map_err(err)?;
     Ok(())
 }
 

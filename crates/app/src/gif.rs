@@ -1,7 +1,6 @@
-//! A small animated-GIF writer for the figures: RGB frames are mapped onto one fixed 256-colour
-//! palette (a 6×6×6 colour cube plus 40 greys) and LZW-compressed (GIF89a, looping). It knows
-//! nothing of plots; `paper_figures.rs` draws the frames. Written here because the plotting
-//! crate's GIF backend would add a dependency for a few dozen lines of encoder.
+//! The animated-GIF writer of the figures: RGB frames are mapped onto one fixed 256-colour
+//! palette (a 6×6×6 colour cube plus 40 greys) and encoded by the `gif` crate (GIF89a,
+//! looping). It knows nothing of plots; the figure modules draw the frames.
 
 use std::io::{self, Write};
 
@@ -40,104 +39,35 @@ fn index_of(r: u8, g: u8, b: u8) -> u8 {
     36 * q(r) + 6 * q(g) + q(b)
 }
 
-/// LSB-first bit packer into GIF sub-blocks of at most 255 bytes.
-struct Bits {
-    out: Vec<u8>,
-    acc: u32,
-    n: u32,
-}
-
-impl Bits {
-    fn put(&mut self, code: u16, size: u32) {
-        self.acc |= (code as u32) << self.n;
-        self.n += size;
-        while self.n >= 8 {
-            self.out.push(self.acc as u8);
-            self.acc >>= 8;
-            self.n -= 8;
-        }
-    }
-
-    fn finish(mut self) -> Vec<u8> {
-        if self.n > 0 {
-            self.out.push(self.acc as u8);
-        }
-        self.out
-    }
-}
-
-/// LZW-compress 8-bit palette indices (minimum code size 8), the way giflib's encoder does:
-/// the code size grows when the next free code reaches 2^size, and the table is cleared when it
-/// is full (4095 codes).
-fn lzw(indices: &[u8]) -> Vec<u8> {
-    const MIN: u32 = 8;
-    let clear: u16 = 1 << MIN;
-    let eoi = clear + 1;
-    // table[prefix * 256 + k] = code of the string prefix + k, 0 if absent.
-    let mut table = vec![0u16; 4096 * 256];
-    let mut next = eoi + 1;
-    let mut size = MIN + 1;
-    let mut bits = Bits {
-        out: Vec::new(),
-        acc: 0,
-        n: 0,
-    };
-    bits.put(clear, size);
-    let Some((&first, rest)) = indices.split_first() else {
-        bits.put(eoi, size);
-        return bits.finish();
-    };
-    let mut prefix = first as u16;
-    for &k in rest {
-        let slot = prefix as usize * 256 + k as usize;
-        if table[slot] != 0 {
-            prefix = table[slot];
-            continue;
-        }
-        bits.put(prefix, size);
-        if next >= 4095 {
-            bits.put(clear, size);
-            table.fill(0);
-            next = eoi + 1;
-            size = MIN + 1;
-        } else {
-            if next >= 1 << size {
-                size += 1;
-            }
-            table[slot] = next;
-            next += 1;
-        }
-        prefix = k as u16;
-    }
-    bits.put(prefix, size);
-    if next >= 1 << size && size < 12 {
-        size += 1;
-    }
-    bits.put(eoi, size);
-    bits.finish()
-}
-
-/// Writes an animated GIF frame by frame.
+/// Writes an animated GIF frame by frame (the `gif` crate encodes; this maps RGB onto the
+/// fixed palette).
 pub struct GifWriter<W: Write> {
-    out: W,
+    encoder: gif::Encoder<W>,
     width: u16,
     height: u16,
+    indices: Vec<u8>,
+}
+
+fn gif_error(e: gif::EncodingError) -> io::Error {
+    match e {
+        gif::EncodingError::Io(e) => e,
+        other => io::Error::other(other.to_string()),
+    }
 }
 
 impl<W: Write> GifWriter<W> {
     /// Start a looping GIF of `width` × `height` pixels.
-    pub fn new(mut out: W, width: u16, height: u16) -> io::Result<Self> {
-        out.write_all(b"GIF89a")?;
-        out.write_all(&width.to_le_bytes())?;
-        out.write_all(&height.to_le_bytes())?;
-        // Global colour table of 256 entries, 8 bits per channel.
-        out.write_all(&[0xF7, 0, 0])?;
-        out.write_all(&palette())?;
-        // Loop forever (NETSCAPE2.0 application extension).
-        out.write_all(&[0x21, 0xFF, 0x0B])?;
-        out.write_all(b"NETSCAPE2.0")?;
-        out.write_all(&[0x03, 0x01, 0x00, 0x00, 0x00])?;
-        Ok(Self { out, width, height })
+    pub fn new(out: W, width: u16, height: u16) -> io::Result<Self> {
+        let mut encoder = gif::Encoder::new(out, width, height, &palette()).map_err(gif_error)?;
+        encoder
+            .set_repeat(gif::Repeat::Infinite)
+            .map_err(gif_error)?;
+        Ok(Self {
+            encoder,
+            width,
+            height,
+            indices: Vec::new(),
+        })
     }
 
     /// Append one frame of packed RGB pixels (row-major, 3 bytes each), shown for
@@ -150,32 +80,24 @@ impl<W: Write> GifWriter<W> {
                 format!("frame of {} bytes, expected {}", rgb.len(), 3 * n),
             ));
         }
-        let indices: Vec<u8> = rgb
-            .chunks_exact(3)
-            .map(|c| index_of(c[0], c[1], c[2]))
-            .collect();
-        let o = &mut self.out;
-        // Graphic control extension: no disposal, no transparency.
-        o.write_all(&[0x21, 0xF9, 0x04, 0x00])?;
-        o.write_all(&delay_cs.to_le_bytes())?;
-        o.write_all(&[0x00, 0x00])?;
-        // Image descriptor: whole canvas, global palette, not interlaced.
-        o.write_all(&[0x2C, 0, 0, 0, 0])?;
-        o.write_all(&self.width.to_le_bytes())?;
-        o.write_all(&self.height.to_le_bytes())?;
-        o.write_all(&[0x00, 8])?;
-        for block in lzw(&indices).chunks(255) {
-            o.write_all(&[block.len() as u8])?;
-            o.write_all(block)?;
-        }
-        o.write_all(&[0x00])
+        self.indices.clear();
+        self.indices
+            .extend(rgb.chunks_exact(3).map(|c| index_of(c[0], c[1], c[2])));
+        let frame = gif::Frame {
+            width: self.width,
+            height: self.height,
+            delay: delay_cs,
+            buffer: std::borrow::Cow::Borrowed(&self.indices),
+            ..gif::Frame::default()
+        };
+        self.encoder.write_frame(&frame).map_err(gif_error)
     }
 
     /// Write the trailer and return the writer.
-    pub fn finish(mut self) -> io::Result<W> {
-        self.out.write_all(&[0x3B])?;
-        self.out.flush()?;
-        Ok(self.out)
+    pub fn finish(self) -> io::Result<W> {
+        let mut out = self.encoder.into_inner().map_err(gif_error)?;
+        out.flush()?;
+        Ok(out)
     }
 }
 
@@ -183,76 +105,50 @@ impl<W: Write> GifWriter<W> {
 mod tests {
     use super::*;
 
-    /// A reference LZW decoder (as in the GIF specification) to check the encoder.
-    fn decode(data: &[u8]) -> Vec<u8> {
-        let (clear, eoi) = (256usize, 257usize);
-        let mut dict: Vec<Vec<u8>> = Vec::new();
-        let reset = |dict: &mut Vec<Vec<u8>>| {
-            dict.clear();
-            dict.extend((0..256).map(|i| vec![i as u8]));
-            dict.push(Vec::new());
-            dict.push(Vec::new());
-        };
-        reset(&mut dict);
-        let (mut size, mut pos) = (9usize, 0usize);
-        let read = |pos: &mut usize, size: usize| {
-            let mut v = 0usize;
-            for b in 0..size {
-                let bit = (data[(*pos + b) / 8] >> ((*pos + b) % 8)) & 1;
-                v |= (bit as usize) << b;
-            }
-            *pos += size;
-            v
-        };
-        let mut out = Vec::new();
-        let mut prev: Option<Vec<u8>> = None;
-        loop {
-            let code = read(&mut pos, size);
-            if code == clear {
-                reset(&mut dict);
-                size = 9;
-                prev = None;
-                continue;
-            }
-            if code == eoi {
-                return out;
-            }
-            let entry = if code < dict.len() {
-                dict[code].clone()
-            } else {
-                let p = prev.clone().unwrap();
-                let mut e = p.clone();
-                e.push(p[0]);
-                e
-            };
-            out.extend_from_slice(&entry);
-            if let Some(p) = prev {
-                let mut e = p;
-                e.push(entry[0]);
-                dict.push(e);
-                if dict.len() == 1 << size && size < 12 {
-                    size += 1;
-                }
-            }
-            prev = Some(entry);
-        }
-    }
-
     #[test]
-    fn lzw_round_trips_through_a_reference_decoder() {
-        // Long runs (table growth past 512, 1024, 2048 and a clear at 4095) and noise.
-        let mut data = Vec::new();
+    fn frames_decode_to_their_palette_colours() {
+        // Two frames (a gradient and noise, beyond one LZW table) decoded by the `gif` crate's
+        // decoder give back each pixel's palette colour, the delays and the size.
+        let (w, h) = (97u16, 61u16);
+        let mut frames = Vec::new();
         let mut x: u32 = 12345;
-        for i in 0..200_000u32 {
-            x = x.wrapping_mul(1_103_515_245).wrapping_add(12_345);
-            data.push(if i % 7000 < 3000 {
-                (x >> 16) as u8
-            } else {
-                (i / 50) as u8 % 4
-            });
+        for f in 0..2 {
+            let rgb: Vec<u8> = (0..3 * w as usize * h as usize)
+                .map(|i| {
+                    x = x.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+                    if f == 0 {
+                        (i / 3 % 256) as u8
+                    } else {
+                        (x >> 16) as u8
+                    }
+                })
+                .collect();
+            frames.push(rgb);
         }
-        assert_eq!(decode(&lzw(&data)), data);
-        assert_eq!(decode(&lzw(&[7])), vec![7]);
+        let mut writer = GifWriter::new(Vec::new(), w, h).unwrap();
+        for rgb in &frames {
+            writer.frame(rgb, 7).unwrap();
+        }
+        let bytes = writer.finish().unwrap();
+        let mut opts = gif::DecodeOptions::new();
+        opts.set_color_output(gif::ColorOutput::Indexed);
+        let mut dec = opts.read_info(bytes.as_slice()).unwrap();
+        assert_eq!((dec.width(), dec.height()), (w, h));
+        let pal = palette();
+        for rgb in &frames {
+            let frame = dec.read_next_frame().unwrap().unwrap().clone();
+            assert_eq!(frame.delay, 7);
+            for (px, &k) in rgb.chunks_exact(3).zip(frame.buffer.iter()) {
+                assert_eq!(k, index_of(px[0], px[1], px[2]));
+                let c = &pal[3 * k as usize..3 * k as usize + 3];
+                // The palette colour is near the pixel's (cube step 51, grey step ~6.4).
+                assert!(c
+                    .iter()
+                    .zip(px)
+                    .all(|(a, b)| (*a as i32 - *b as i32).abs() <= 26));
+            }
+        }
+        assert!(dec.read_next_frame().unwrap().is_none());
     }
 
     #[test]

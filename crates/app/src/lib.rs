@@ -2,9 +2,10 @@
 //! scenario files (`scenario`), scenario → system and controllers (`build`, `initial`), the one
 //! run pipeline (`pipeline`), its recorders (`recorder`, `series`, `acceptance`) and the output
 //! files (`output`). With the `cli` feature (default), the command line's parts: figures
-//! (`figures`, `paper_figures`, `gif`, `plot`, `sweep_figures`), progress bars (`progress`)
-//! and `octoarm paper` (`paper`). Parameter sweeps (`sweep`) are library code, shared with
-//! Python. The physics lives in `octoarm-physics`, the control in `octoarm-control`.
+//! (`figures`, `paper_figures`, `projection`, `gif`, `plot`, `sweep_figures`), progress bars
+//! (`progress`), `octoarm paper` (`paper`) and the live viewer's recorder (`live`). Parameter
+//! sweeps (`sweep`) are library code, shared with Python. The physics lives in
+//! `octoarm-physics`, the control in `octoarm-control`.
 
 pub mod acceptance;
 pub mod build;
@@ -23,6 +24,8 @@ pub mod figures;
 #[cfg(feature = "cli")]
 pub mod gif;
 #[cfg(feature = "cli")]
+pub mod live;
+#[cfg(feature = "cli")]
 pub mod paper;
 #[cfg(feature = "cli")]
 pub mod paper_figures;
@@ -31,6 +34,7 @@ mod plot;
 #[cfg(feature = "cli")]
 pub mod progress;
 #[cfg(feature = "cli")]
+pub mod projection;
 pub mod sweep_figures;
 
 use scenario::{fmt_num, fmt_sci, fmt_vec, Scenario, ScenarioError};

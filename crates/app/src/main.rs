@@ -59,6 +59,31 @@ enum Command {
         /// a unit: 500MB, 2GB, 1.5TB; "unlimited" for no limit) [default: 2GB].
         #[arg(long, value_name = "SIZE", value_parser = parse_size, allow_negative_numbers = true)]
         max_output: Option<MaxOutput>,
+        /// Watch the run in the browser: serve the viewer on 127.0.0.1, print its URL, wait
+        /// (at most 30 s) for the page to connect, then stream frames to it while the run goes.
+        /// After the run the page stays served until Ctrl-C.
+        #[arg(long)]
+        view: bool,
+        /// The viewer's port (with --view); 0 picks a free one [default: 0].
+        #[arg(long, value_name = "N", requires = "view")]
+        port: Option<u16>,
+        /// Do not open a browser (with --view); open the printed URL yourself.
+        #[arg(long, requires = "view")]
+        no_open: bool,
+    },
+    /// Show recorded runs in the browser: serve a local page (127.0.0.1 only) that replays a
+    /// run folder, a sweep folder (pick a run) or a results folder such as `octoarm paper`'s
+    /// (pick an experiment): the rods in 3D with their radii, obstacles, targets and desired
+    /// shape, a time slider and the run's series. Prints the URL; Ctrl-C stops the server.
+    View {
+        /// A run folder (with trajectory.npz), a sweep folder (with runs/) or a folder of runs.
+        path: PathBuf,
+        /// Port to listen on; 0 picks a free one [default: 0].
+        #[arg(long, value_name = "N")]
+        port: Option<u16>,
+        /// Do not open a browser; open the printed URL yourself.
+        #[arg(long)]
+        no_open: bool,
     },
     /// Run the paper's four experiments (scenarios/paper/*.toml, compiled in) in parallel and
     /// write, into OUT, one folder per experiment (two-targets/, moving-target/, obstacles/,
@@ -194,6 +219,37 @@ fn parse_size(text: &str) -> Result<MaxOutput, String> {
     Ok(MaxOutput(Some(bytes as u64)))
 }
 
+/// A bad path or port for the viewer (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct ViewerInput(String);
+
+/// Start the viewer's server on 127.0.0.1:`port`, print its URL on stdout and open a browser
+/// unless `no_open` (or there is none).
+fn start_viewer(
+    source: octoarm_viewer::server::Source,
+    port: Option<u16>,
+    no_open: bool,
+) -> Result<octoarm_viewer::server::Server> {
+    use std::io::Write;
+    let server = octoarm_viewer::server::Server::start(source, port.unwrap_or(0))
+        .map_err(|e| ViewerInput(format!("{e:#}")))?;
+    let url = server.url();
+    println!("octoarm viewer: {url}");
+    let _ = std::io::stdout().flush();
+    if !no_open && !octoarm_viewer::server::open_browser(&url) {
+        tracing::warn!("no browser to open (no display): open {url} yourself");
+    }
+    Ok(server)
+}
+
+/// Block until SIGINT / SIGTERM sets `stop`.
+fn wait_for_signal(stop: &std::sync::atomic::AtomicUsize) {
+    while stop.load(std::sync::atomic::Ordering::Relaxed) == 0 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}
+
 /// A run that stopped early; its outputs are written.
 #[derive(Debug, thiserror::Error)]
 #[error("{message}")]
@@ -239,6 +295,7 @@ fn main() -> ExitCode {
                 || e.downcast_ref::<OutputError>().is_some()
                 || e.downcast_ref::<octoarm::sweep::ray::RayUnavailable>()
                     .is_some()
+                || e.downcast_ref::<ViewerInput>().is_some()
                 || e.downcast_ref::<clap::Error>().is_some()
             {
                 ExitCode::from(2)
@@ -369,11 +426,34 @@ fn run(cli: Cli) -> Result<()> {
                 plan,
             },
         ),
+        Command::View {
+            path,
+            port,
+            no_open,
+        } => {
+            let catalog =
+                octoarm_viewer::runs::discover(&path).map_err(|e| ViewerInput(format!("{e:#}")))?;
+            let stop = install_signal_handlers();
+            let server = start_viewer(
+                octoarm_viewer::server::Source::Folder(std::sync::Arc::new(catalog)),
+                port,
+                no_open,
+            )?;
+            if !cli.quiet {
+                eprintln!("serving until Ctrl-C");
+            }
+            wait_for_signal(&stop);
+            drop(server);
+            Ok(())
+        }
         Command::Run {
             scenario,
             out,
             duration,
             max_output,
+            view,
+            port,
+            no_open,
         } => {
             let scn = load(&scenario, duration)?;
             octoarm::estimate::check_output_size(&scn, MaxOutput::bytes(max_output))?;
@@ -384,18 +464,97 @@ fn run(cli: Cli) -> Result<()> {
                 tracing::warn!("{warning}");
             }
             let target = out.unwrap_or_else(|| octoarm::default_out_dir(&scn));
+            let stop = install_signal_handlers();
+            // The live viewer: served and connected before the output folder is made, so an
+            // interrupted wait leaves nothing behind.
+            let live = if view {
+                let mut scene = octoarm_viewer::scene::scene_of(Some(&scn.resolved_toml()));
+                scene["name"] = serde_json::json!(scn.name);
+                let hub = octoarm_viewer::live::LiveHub::new(scene);
+                let server = start_viewer(
+                    octoarm_viewer::server::Source::Live(std::sync::Arc::clone(&hub)),
+                    port,
+                    no_open,
+                )?;
+                if !cli.quiet {
+                    eprintln!("waiting for the page to connect (at most 30 s) ...");
+                }
+                let connected = hub.wait_for_client(std::time::Duration::from_secs(30), || {
+                    stop.load(std::sync::atomic::Ordering::Relaxed) != 0
+                });
+                let signal = stop.load(std::sync::atomic::Ordering::Relaxed);
+                if signal != 0 {
+                    return Err(Interrupted {
+                        message: format!(
+                            "interrupted (signal {signal}) before the run started; nothing written"
+                        ),
+                        signal: signal as i32,
+                    }
+                    .into());
+                }
+                if !connected {
+                    tracing::warn!("no page connected within 30 s: running anyway");
+                }
+                Some((hub, server))
+            } else {
+                None
+            };
             let out = OutputDir::prepare(&target)?;
             let bar =
                 Progress::new(show_progress(cli.quiet)).bar(pipeline::planned_steps(&scn), "");
             let update = |k: u64, t: f64| bar.update(k, t);
-            let stop = install_signal_handlers();
             let opts = RunOptions {
                 progress: Some(&update),
                 figures: Some(&CliFigures),
                 stop: Some(&stop),
             };
-            let report = pipeline::run(&scn, prepared, out, &opts)?;
+            let report = if let Some((hub, _)) = &live {
+                let controlled = scn
+                    .config
+                    .controller
+                    .as_ref()
+                    .and_then(|c| c.rod.as_deref())
+                    .and_then(|name| prepared.system.rod_index(name));
+                let mut recorder = octoarm::live::LiveRecorder::new(
+                    std::sync::Arc::clone(hub),
+                    &prepared.system,
+                    scn.config.save_every(),
+                    pipeline::planned_steps(&scn),
+                    controlled,
+                );
+                hub.set_status(octoarm_viewer::live::LiveStatus::Running);
+                let report = pipeline::run_with(&scn, prepared, out, &opts, &mut [&mut recorder])?;
+                let (status, message) = match &report.failure {
+                    None => ("completed", None),
+                    Some(f @ pipeline::Failure::Unstable(_)) => ("unstable", Some(f.to_string())),
+                    Some(f @ pipeline::Failure::Control(_)) => ("failed", Some(f.to_string())),
+                    Some(f @ pipeline::Failure::Interrupted(_)) => {
+                        ("interrupted", Some(f.to_string()))
+                    }
+                };
+                hub.set_status(octoarm_viewer::live::LiveStatus::Finished {
+                    status: status.into(),
+                    message,
+                    out_dir: report.out_dir.display().to_string(),
+                });
+                report
+            } else {
+                pipeline::run(&scn, prepared, out, &opts)?
+            };
             bar.finish();
+            // With --view the page stays served after the run (not after an interrupt).
+            if let Some((_, server)) = &live {
+                if !matches!(report.failure, Some(pipeline::Failure::Interrupted(_))) {
+                    if !cli.quiet {
+                        eprintln!(
+                            "run finished ({}); the viewer at {} stays open until Ctrl-C",
+                            report.out_dir.display(),
+                            server.url()
+                        );
+                    }
+                    wait_for_signal(&stop);
+                }
+            }
             if let Some(pipeline::Failure::Interrupted(signal)) = &report.failure {
                 return Err(Interrupted {
                     message: format!(

@@ -230,6 +230,10 @@ pub fn shapes_png(
         .flat_map(|&i| frames[i].position.iter())
         .chain(desired_drawn.iter().flat_map(|&i| frames[i].desired.iter()))
         .chain(targets.iter());
+    let flat: Vec<&[f64; 3]> = points.clone().collect();
+    if crate::projection::is_three_dimensional(flat.iter().copied()) {
+        return shapes_png_3d(path, spec, frames, &picks, &desired_drawn, &targets, title);
+    }
     let (mut lo, hi) = bounds(points, &spheres, length);
     lo[0] = lo[0].min(-0.05);
 
@@ -339,6 +343,66 @@ pub fn shapes_png(
     Ok(())
 }
 
+/// The 3D scene of a controlled run: the arm at `picks` in purple shades (or one frame in
+/// `purple(0.8)`), desired shapes in green, targets as red crosses, spheres in grey.
+fn control_scene(
+    spec: &ControlFigureSpec,
+    frames: &[FigureFrame],
+    picks: &[usize],
+    desired: &[usize],
+    targets: &[[f64; 3]],
+) -> crate::projection::Scene3 {
+    use crate::projection::{Scene3, Stroke};
+    let mut scene = Scene3::default();
+    for s in &spec.spheres {
+        scene.balls.push((s.center, 0.5 * s.diameter, OBSTACLE));
+    }
+    let n = picks.len().max(2);
+    for (k, &i) in picks.iter().enumerate() {
+        let colour = if picks.len() == 1 {
+            purple(0.8)
+        } else {
+            purple(k as f64 / (n - 1) as f64)
+        };
+        scene.strokes.push(Stroke {
+            points: frames[i].position.clone(),
+            colours: vec![colour],
+            width: 3.5,
+        });
+    }
+    for &i in desired {
+        if frames[i].desired.iter().flatten().all(|x| x.is_finite()) {
+            scene.strokes.push(Stroke {
+                points: frames[i].desired.clone(),
+                colours: vec![DESIRED],
+                width: 1.5,
+            });
+        }
+    }
+    for t in targets {
+        scene.crosses.push((*t, TARGET));
+    }
+    scene
+}
+
+/// `shapes.png` of a controlled run leaving the x–y plane: the picked instants in three
+/// orthographic projections and a perspective view.
+fn shapes_png_3d(
+    path: &Path,
+    spec: &ControlFigureSpec,
+    frames: &[FigureFrame],
+    picks: &[usize],
+    desired: &[usize],
+    targets: &[[f64; 3]],
+    title: &str,
+) -> Result<()> {
+    let scene = control_scene(spec, frames, picks, desired, targets);
+    let root = png_canvas(path, (1200, 1000), &format!("{title} (3D)"), 28)?;
+    crate::projection::draw_four_views(&root, &scene, 16)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
 /// Draw one animation frame into `area`.
 #[allow(clippy::too_many_arguments)]
 fn gif_frame(
@@ -415,9 +479,14 @@ pub fn shapes_gif(path: &Path, spec: &ControlFigureSpec, frames: &[FigureFrame])
             .chain(f.desired.iter())
             .chain(f.target.iter())
     });
+    let three_d = crate::projection::is_three_dimensional(points.clone());
     let (mut lo, hi) = bounds(points, &spec.spheres, length);
     lo[0] = lo[0].min(-0.05);
-    let (w, h) = (560u32, 440u32);
+    let (w, h) = if three_d {
+        (720u32, 600u32)
+    } else {
+        (560u32, 440u32)
+    };
     let (margin, xlab, ylab) = (10u32, 45u32, 55u32);
     let range = equal_box(
         lo,
@@ -431,13 +500,43 @@ pub fn shapes_gif(path: &Path, spec: &ControlFigureSpec, frames: &[FigureFrame])
         spec.frame_interval
     };
     let delay = ((stride as f64 * frame_dt * 100.0).round() as u16).max(2);
+    let box3 = {
+        let all = control_scene(
+            spec,
+            frames,
+            &(0..frames.len()).step_by(stride).collect::<Vec<_>>(),
+            &[],
+            &[],
+        );
+        all.bounds()
+    };
     let file = BufWriter::new(File::create(path)?);
     let mut gif = GifWriter::new(file, w as u16, h as u16)?;
     let mut buf = vec![0u8; (3 * w * h) as usize];
     for (k, f) in shown.iter().enumerate() {
         {
             let area = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-            gif_frame(&area, spec, f, range, margin, xlab, ylab)?;
+            if three_d {
+                // Every frame in the same box: the first, all shown frames and the spheres.
+                area.fill(&WHITE).map_err(err)?;
+                let area = area
+                    .titled(
+                        &format!("{}   t = {:.2} s", spec.name, f.time),
+                        ("sans-serif", 18),
+                    )
+                    .map_err(err)?;
+                let targets: Vec<[f64; 3]> = f.target.into_iter().collect();
+                let mut scene = control_scene(spec, std::slice::from_ref(*f), &[0], &[0], &targets);
+                // Fix the panels' box: invisible zero-width strokes at the run's corners.
+                scene.strokes.push(crate::projection::Stroke {
+                    points: vec![box3.0, box3.1],
+                    colours: vec![WHITE],
+                    width: 0.0,
+                });
+                crate::projection::draw_four_views(&area, &scene, 12)?;
+            } else {
+                gif_frame(&area, spec, f, range, margin, xlab, ylab)?;
+            }
             area.present().map_err(err)?;
         }
         // Hold the last frame for a second before the loop restarts.

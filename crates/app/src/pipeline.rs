@@ -38,6 +38,8 @@ pub struct RunInfo {
     pub duration: f64,
     /// The controller's counters, for a controlled run.
     pub control: Option<ControlReport>,
+    /// Why the run stopped early, if it did.
+    pub failure: Option<Failure>,
 }
 
 /// Samples a run and writes its files at the end. The pipeline calls `record` at t = 0, every
@@ -162,6 +164,19 @@ pub fn run(
     out: OutputDir,
     opts: &RunOptions<'_>,
 ) -> Result<RunReport> {
+    run_with(scn, prepared, out, opts, &mut [])
+}
+
+/// `run` with more recorders beside the trajectory and the series (e.g. the live viewer's):
+/// each is sampled every `every()` steps and at the end, after the guard has passed the state,
+/// in the same loop, and finished after the others (its `summary.json` keys are added).
+pub fn run_with(
+    scn: &Scenario,
+    prepared: Prepared,
+    out: OutputDir,
+    opts: &RunOptions<'_>,
+    extra: &mut [&mut dyn Recorder],
+) -> Result<RunReport> {
     let wall = Instant::now();
     let cfg = &scn.config;
     let Prepared {
@@ -254,7 +269,8 @@ pub fn run(
         let last = k == n_steps || stop != 0;
         let due_traj = k % trajectory.every() == 0 || last;
         let due_series = series.as_ref().is_some_and(|s| k % s.every() == 0 || last);
-        if due_traj || due_series {
+        let due_extra = !extra.is_empty() && extra.iter().any(|r| k % r.every() == 0 || last);
+        if due_traj || due_series || due_extra {
             if k == 0 || global % guard_every != 0 {
                 if let Err(e) = step::check(&system, &state, &mut ws) {
                     failure = Some(Failure::Unstable(e));
@@ -280,6 +296,13 @@ pub fn run(
             if due_series {
                 if let Some(s) = &mut series {
                     s.record(&mut m)?;
+                }
+            }
+            if due_extra {
+                for r in extra.iter_mut() {
+                    if k % r.every() == 0 || last {
+                        r.record(&mut m)?;
+                    }
                 }
             }
             if let Some(p) = opts.progress {
@@ -322,6 +345,7 @@ pub fn run(
     let info = RunInfo {
         duration: cfg.time.duration,
         control: controllers.first().map(|c| c.report()),
+        failure: failure.clone(),
     };
     let mut summary = Map::new();
     let target = out.target().to_path_buf();
@@ -335,6 +359,9 @@ pub fn run(
             s.finish(&out, &info)
                 .with_context(|| format!("writing the series of {}", target.display()))?,
         );
+    }
+    for r in extra.iter_mut() {
+        summary.extend(r.finish(&out, &info)?);
     }
     std::fs::write(out.path("scenario.toml"), scn.resolved_toml())
         .with_context(|| format!("cannot write {}", out.path("scenario.toml").display()))?;

@@ -651,6 +651,7 @@ mod tests {
         let info = RunInfo {
             duration: 1.0,
             control: None,
+            failure: None,
         };
         let summary = rec.finish(&out, &info).unwrap();
         assert_eq!(summary["frames"], frames);

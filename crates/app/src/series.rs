@@ -732,6 +732,7 @@ mod tests {
         let run = RunInfo {
             duration: 0.3,
             control: None,
+            failure: None,
         };
         let mut outputs = Vec::new();
         for spooled in [false, true] {

@@ -158,6 +158,56 @@ impl Arm {
     }
 }
 
+/// Half-width of the rendered window about the base [m]: 1.1 L0, beyond any reachable node.
+const RENDER_HALF_WIDTH: f64 = 1.1 * ARM_LENGTH;
+
+/// The picture of one arm (see `ArmBatch::render`).
+fn render_arm(arm: &Arm, width: usize, height: usize) -> octoarm_viewer::raster::Image {
+    use octoarm_viewer::raster::{draw_rod, Image, View};
+    let mut img = Image::new(width, height, [250, 250, 250]);
+    let half = RENDER_HALF_WIDTH;
+    let view = View::fit([-half, -half], [half, half], width, height, 0.0);
+    // A 5 cm grid, the axes through the base a little darker.
+    let line = view.len_px(0.0004).max(1.0);
+    for k in -4i32..=4 {
+        let at = 0.05 * k as f64;
+        let shade = if k == 0 {
+            [205, 205, 205]
+        } else {
+            [228, 228, 228]
+        };
+        let [x, _] = view.to_px([at, 0.0]);
+        img.fill_rect(x - 0.5 * line, x + 0.5 * line, 0.0, height as f64, shade);
+        let [_, y] = view.to_px([0.0, at]);
+        img.fill_rect(0.0, width as f64, y - 0.5 * line, y + 0.5 * line, shade);
+    }
+    // The clamp: a dark block behind the base.
+    let [x0, y0] = view.to_px([-0.012, 0.02]);
+    let [x1, y1] = view.to_px([0.0, -0.02]);
+    img.fill_rect(x0, x1, y0, y1, [60, 60, 60]);
+    // The target: a red disc of 6 mm radius with a white centre.
+    let [tx, ty] = view.to_px(arm.target);
+    img.fill_disc(tx, ty, view.len_px(0.006).max(3.0), [220, 20, 30]);
+    img.fill_disc(tx, ty, view.len_px(0.002).max(1.0), [255, 255, 255]);
+    // The arm with its true radius (one rod: the system's nodes in order).
+    let s = &arm.sim.state;
+    let nodes: Vec<[f64; 2]> = s
+        .position
+        .x
+        .iter()
+        .zip(&s.position.y)
+        .map(|(&x, &y)| [x, y])
+        .collect();
+    draw_rod(
+        &mut img,
+        &view,
+        &nodes,
+        &arm.sim.system.rod(0).model.radius,
+        [123, 63, 196],
+    );
+    img
+}
+
 /// Many planar arms stepped in parallel (rayon, `num_threads` workers; default all cores).
 /// Arguments: `n_envs` ≥ 1; `n_elements` ≥ 4 (default 20); `n_segments` in [1, n_elements − 1]
 /// (default 4); `max_curvature` [1/m] > 0 (default 20); `control_period` [s] (default 0.01) a
@@ -468,6 +518,39 @@ impl ArmBatch {
             Array1::from_vec(dist).into_pyarray(py),
             failures,
         ))
+    }
+
+    /// An RGB image of arm `index`, shape (height, width, 3), dtype uint8: the arm drawn with
+    /// its true (tapered) radius, its target, the clamp at the origin and a 5 cm grid, in a
+    /// fixed window of ±0.22 m (±1.1 L0) about the base, x right and y up. `width` and
+    /// `height` in [16, 4096] pixels (default 400 × 400). Rendered in Rust, no display needed.
+    #[pyo3(signature = (index, width = 400, height = 400))]
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        index: i64,
+        width: i64,
+        height: i64,
+    ) -> PyResult<Bound<'py, numpy::PyArray3<u8>>> {
+        let n = self.n_envs;
+        let i = usize::try_from(index)
+            .ok()
+            .filter(|&i| i < n)
+            .ok_or_else(|| bad("index", index, &format!("[0, {}] (n_envs - 1)", n - 1)))?;
+        let size = |name: &str, v: i64| {
+            usize::try_from(v)
+                .ok()
+                .filter(|v| (16..=4096).contains(v))
+                .ok_or_else(|| bad(name, v, "[16, 4096]"))
+        };
+        let (w, h) = (size("width", width)?, size("height", height)?);
+        let image = {
+            let arms = lock(py, &self.arms);
+            render_arm(&arms[i], w, h)
+        };
+        let array = numpy::ndarray::Array3::from_shape_vec((h, w, 3), image.pixels)
+            .expect("an image of height × width × 3 bytes");
+        Ok(array.into_pyarray(py))
     }
 
     /// A copy of arm `index` as a `Simulation` (for plotting or inspection).

@@ -1,5 +1,6 @@
-"""Stable-Baselines3 (issue 16, item 12): unsupported keyword arguments such as render_mode
-raise TypeError (SB3's make_vec_env falls back on TypeError only), and octoarm.sb3.RustVecEnv
+"""Stable-Baselines3 (issue 16, item 12): unsupported keyword arguments, and render modes other
+than None and "rgb_array" (issue 15), raise TypeError (SB3's make_vec_env falls back on
+TypeError only), and octoarm.sb3.RustVecEnv
 is an SB3 VecEnv over the Rust vector env with the same results as SB3's DummyVecEnv. The SB3
 tests are skipped when Stable-Baselines3 is not installed."""
 
@@ -18,9 +19,9 @@ needs_sb3 = pytest.mark.skipif(not HAVE_SB3, reason="stable-baselines3 is not in
 
 
 @pytest.mark.parametrize("make", [
-    lambda: ArmReachEnv(render_mode="rgb_array"),
-    lambda: ArmReachVectorEnv(num_envs=2, render_mode="rgb_array"),
+    lambda: ArmReachVectorEnv(num_envs=2, render_mode="human"),
     lambda: ArmReachEnv(render_mode="human"),
+    lambda: ArmReachEnv(render_mode="ansi"),
     lambda: ArmReachEnv(no_such_option=1),
 ])
 def test_unsupported_keyword_arguments_raise_type_error(make):
@@ -33,13 +34,17 @@ def test_unsupported_keyword_arguments_raise_type_error(make):
 
 
 def test_gym_make_with_render_mode_raises_type_error_and_falls_back():
-    """What SB3's make_vec_env does: try render_mode="rgb_array", on TypeError retry without."""
+    """What SB3's make_vec_env does: try a render mode, on TypeError retry without. An
+    unsupported mode raises TypeError; "rgb_array" is supported (issue 15). ("human" is too,
+    through Gymnasium's HumanRendering wrapper over "rgb_array".)"""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         with pytest.raises(TypeError, match="render_mode"):
-            gym.make("octoarm/ArmReach-v0", render_mode="rgb_array")
+            gym.make("octoarm/ArmReach-v0", render_mode="ansi")
     env = gym.make("octoarm/ArmReach-v0")
-    assert env.render_mode is None and env.metadata["render_modes"] == []
+    assert env.render_mode is None and env.metadata["render_modes"] == ["rgb_array"]
+    env = gym.make("octoarm/ArmReach-v0", render_mode="rgb_array")
+    assert env.render_mode == "rgb_array"
 
 
 def test_sb3_module_needs_sb3():

@@ -93,15 +93,23 @@ def _spaces(batch: ArmBatch) -> tuple[spaces.Box, spaces.Box]:
     return obs, act
 
 
-def _no_render(owner: str, render_mode: str | None) -> None:
-    # TypeError, as for any unsupported keyword argument: Stable-Baselines3's make_vec_env tries
-    # render_mode="rgb_array" and falls back to no render_mode on TypeError only.
-    if render_mode is not None:
+RENDER_MODES = ["rgb_array"]
+"""Render modes of the environments: ``"rgb_array"``, an (H, W, 3) uint8 image drawn in Rust."""
+
+
+def _check_render(owner: str, render_mode: str | None, width: int, height: int) -> None:
+    # TypeError for an unsupported mode, as for any unsupported keyword argument:
+    # Stable-Baselines3's make_vec_env tries render_mode="rgb_array" and falls back to no
+    # render_mode on TypeError only.
+    if render_mode is not None and render_mode not in RENDER_MODES:
         raise TypeError(
             f"{owner}() got an unsupported keyword argument render_mode={render_mode!r}: "
-            "octoarm's environments do not render yet (metadata['render_modes'] is empty); "
-            "use render_mode=None"
+            "octoarm's environments render only 'rgb_array': use render_mode=None or "
+            "render_mode='rgb_array'"
         )
+    for name, v in (("render_width", width), ("render_height", height)):
+        if not isinstance(v, (int, np.integer)) or not 16 <= v <= 4096:
+            raise ValueError(f"{name} = {v!r} is outside the allowed range [16, 4096]")
 
 
 def _shape(shape: Sequence[int]) -> str:
@@ -157,19 +165,31 @@ class ArmReachEnv(gym.Env[Array, Array]):
 
     Keyword arguments are those of :class:`octoarm.ArmBatch` (``n_elements``, ``n_segments``,
     ``max_curvature``, ``control_period``, ``dt``, ``damping_rate``, ``effort_weight``,
-    ``tip_diameter``, ``activation_time``); anything else, including a ``render_mode`` other
-    than None (no rendering yet), raises ``TypeError``.
+    ``tip_diameter``, ``activation_time``), plus ``render_mode`` (None or ``"rgb_array"``:
+    :meth:`render` returns an (render_height, render_width, 3) uint8 image of the arm and its
+    target, drawn in Rust without a display; default 400 x 400 pixels); any other render mode
+    or keyword raises ``TypeError``.
 
     Observation: node x, y / L0 in [-1.5, 1.5]; node vx, vy / (10 L0/s) in [-5, 5]; target x, y
     / L0 in [-1.5, 1.5]; lagged rest curvature per segment / max_curvature in [-1, 1]; last
     action in [-1, 1] (L0 = 0.2 m; details in the module docstring).
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": 100}
 
-    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
-        _no_render("ArmReachEnv", render_mode)
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        render_width: int = 400,
+        render_height: int = 400,
+        **config: Any,
+    ) -> None:
+        _check_render("ArmReachEnv", render_mode, render_width, render_height)
+        self.render_mode = render_mode
+        self.render_size = (int(render_height), int(render_width))
         self._batch = ArmBatch(n_envs=1, num_threads=1, **config)
+        # Frames per second of a video in real time: one frame per control period.
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self._batch.control_period)}
         self.observation_space, self.action_space = _spaces(self._batch)
         self.control_period: float = self._batch.control_period
         self.target: FloatArray = np.zeros(2)
@@ -195,6 +215,14 @@ class ArmReachEnv(gym.Env[Array, Array]):
             info["unstable"] = str(failures[0])
         return obs[0], float(reward[0]), False, unstable, info
 
+    def render(self) -> npt.NDArray[np.uint8] | None:
+        """With ``render_mode="rgb_array"``: the arm, its target and the clamp as an
+        (H, W, 3) uint8 image (x right, y up, a fixed +-0.22 m window, 5 cm grid); else None."""
+        if self.render_mode != "rgb_array":
+            return None
+        h, w = self.render_size
+        return self._batch.render(0, w, h)
+
     def simulation(self) -> Simulation:
         """A copy of the arm as an :class:`octoarm.Simulation`."""
         return self._batch.simulation(0)
@@ -209,7 +237,11 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
     :class:`ArmReachEnv` (see the module docstring), whatever ``num_threads``.
     """
 
-    metadata: dict[str, Any] = {"render_modes": [], "autoreset_mode": "NextStep"}
+    metadata: dict[str, Any] = {
+        "render_modes": RENDER_MODES,
+        "render_fps": 100,
+        "autoreset_mode": "NextStep",
+    }
 
     def __init__(
         self,
@@ -217,9 +249,13 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
         num_threads: int | None = None,
         max_episode_steps: int = EPISODE_STEPS,
         render_mode: str | None = None,
+        render_width: int = 400,
+        render_height: int = 400,
         **config: Any,
     ) -> None:
-        _no_render("ArmReachVectorEnv", render_mode)
+        _check_render("ArmReachVectorEnv", render_mode, render_width, render_height)
+        self.render_mode = render_mode
+        self.render_size = (int(render_height), int(render_width))
         if max_episode_steps < 1:
             raise ValueError(
                 f"max_episode_steps = {max_episode_steps} is outside the allowed range [1, inf)"
@@ -237,6 +273,7 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.control_period: float = self._batch.control_period
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.control_period)}
         self.targets: FloatArray = np.zeros((num_envs, 2))
         self._elapsed = np.zeros(num_envs, dtype=np.int64)
         self._autoreset = np.zeros(num_envs, dtype=bool)
@@ -364,6 +401,14 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
             info["unstable"] = messages
             info["_unstable"] = unstable
         return obs.copy(), reward, terminated, truncated, info
+
+    def render(self) -> tuple[npt.NDArray[np.uint8], ...] | None:
+        """With ``render_mode="rgb_array"``: one (H, W, 3) uint8 image per arm (as Gymnasium's
+        ``SyncVectorEnv`` returns its sub-environments' frames); else None."""
+        if self.render_mode != "rgb_array":
+            return None
+        h, w = self.render_size
+        return tuple(self._batch.render(i, w, h) for i in range(self.num_envs))
 
     def simulation(self, index: int) -> Simulation:
         """A copy of arm ``index`` as an :class:`octoarm.Simulation`."""

@@ -58,7 +58,9 @@ class RustVecEnv(VecEnv):  # type: ignore[misc, unused-ignore]
     do not depend on it), ``max_episode_steps`` (default 200, as ``octoarm/ArmReach-v0``) and
     the keyword arguments of :class:`octoarm.ArmBatch` (``n_elements``, ``n_segments``, ...).
     ``set_options({"target": [x, y]})`` (or a list of such dicts, one per arm) sets the targets
-    of the next ``reset()``.
+    of the next ``reset()``. ``render_mode="rgb_array"`` (with ``render_width``,
+    ``render_height``) makes ``get_images()`` / ``render()`` return the arms' frames, so SB3's
+    ``VecVideoRecorder`` works.
     """
 
     def __init__(
@@ -144,12 +146,14 @@ class RustVecEnv(VecEnv):  # type: ignore[misc, unused-ignore]
         **method_kwargs: Any,
     ) -> list[Any]:
         """Per-arm methods: ``simulation`` (a copy of each arm as an
-        :class:`octoarm.Simulation`) and ``render`` (no rendering yet: None)."""
+        :class:`octoarm.Simulation`) and ``render`` (with ``render_mode="rgb_array"`` the arm's
+        (H, W, 3) uint8 image, else None)."""
         idx = list(self._get_indices(indices))
         if method_name == "simulation":
             return [self.simulation(i) for i in idx]
         if method_name == "render":
-            return [None for _ in idx]
+            frames = self.venv.render()
+            return [None if frames is None else frames[i] for i in idx]
         raise AttributeError(
             f"RustVecEnv has no per-arm method {method_name!r}; its arms have 'simulation' "
             "and 'render'"
@@ -161,7 +165,12 @@ class RustVecEnv(VecEnv):  # type: ignore[misc, unused-ignore]
         return [False for _ in self._get_indices(indices)]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
-        return [None for _ in range(self.num_envs)]
+        """One (H, W, 3) uint8 image per arm with ``render_mode="rgb_array"`` (what SB3's
+        ``render()`` tiles and ``VecVideoRecorder`` records), else None per arm."""
+        frames = self.venv.render()
+        if frames is None:
+            return [None for _ in range(self.num_envs)]
+        return list(frames)
 
     def simulation(self, index: int) -> Simulation:
         """A copy of arm ``index`` as an :class:`octoarm.Simulation`."""
