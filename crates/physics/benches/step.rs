@@ -1,7 +1,9 @@
-//! Criterion benchmark: µs per step of the paper's arm (damping + tip force) for N = 25..400.
+//! Criterion benchmark: µs per step of the paper's arm (damping + tip force) for N = 25..400, and
+//! of COOMM's muscular arm (muscles-3d spec §9: N = 100, dt = 1e-5 s, all seven muscle groups
+//! active, drag, `coomm` damping).
 #![allow(missing_docs)] // criterion_group! generates an undocumented public function
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use octoarm_physics::{Damping, Load, Settings, Simulation, StraightRod};
+use octoarm_physics::{Damping, Load, MuscleSpec, Settings, Simulation, StraightRod};
 
 fn arm(n: usize) -> Simulation {
     let (model, state) = StraightRod::paper_arm().with_elements(n).build().unwrap();
@@ -14,6 +16,24 @@ fn arm(n: usize) -> Simulation {
     sim
 }
 
+fn muscular_arm() -> Simulation {
+    let (model, state) = StraightRod::coomm_arm().build().unwrap();
+    let n = model.n_elements;
+    let drag = Load::coomm_drag(&model);
+    let mut sim = Simulation::new(model, state, Settings::with_dt(1e-5)).unwrap();
+    sim.set_damping(Damping::coomm(1050.0, 0.012)).unwrap();
+    sim.add_load(drag).unwrap();
+    sim.set_muscles(Some(MuscleSpec::coomm())).unwrap();
+    for g in 0..7 {
+        let a: Vec<f64> = (0..n)
+            .map(|j| 0.1 + 0.05 * g as f64 + 0.1 * (j as f64 / n as f64))
+            .collect();
+        sim.set_activation(g, &a).unwrap();
+    }
+    sim.run(2000).unwrap();
+    sim
+}
+
 fn bench_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("step");
     for n in [25usize, 50, 100, 200, 400] {
@@ -22,6 +42,8 @@ fn bench_step(c: &mut Criterion) {
             b.iter(|| sim.step().unwrap());
         });
     }
+    let mut sim = muscular_arm();
+    group.bench_function("muscular_arm_100", |b| b.iter(|| sim.step().unwrap()));
     group.finish();
 }
 
