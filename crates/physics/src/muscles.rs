@@ -413,6 +413,40 @@ impl MuscleModel {
         scratch: &mut MuscleScratch,
         out: &mut Resultants<'_>,
     ) {
+        // The kernel chosen at run time: the same code compiled for AVX2 where the CPU has it
+        // (four lanes for the square roots and divisions). No FMA is enabled and Rust never
+        // contracts a·b + c on its own, so both paths give the same bits.
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: AVX2 is available on this CPU (checked just above).
+                unsafe { self.resultants_avx2(activation, s, scratch, out) };
+                return;
+            }
+        }
+        self.resultants_portable(activation, s, scratch, out);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn resultants_avx2(
+        &self,
+        activation: [&[f64]; N_GROUPS],
+        s: &Strains<'_>,
+        scratch: &mut MuscleScratch,
+        out: &mut Resultants<'_>,
+    ) {
+        self.resultants_portable(activation, s, scratch, out);
+    }
+
+    #[inline(always)]
+    fn resultants_portable(
+        &self,
+        activation: [&[f64]; N_GROUPS],
+        s: &Strains<'_>,
+        scratch: &mut MuscleScratch,
+        out: &mut Resultants<'_>,
+    ) {
         let n = self.n_elements();
         let nk = n - 1;
         for c in 0..3 {
@@ -447,16 +481,19 @@ impl MuscleModel {
                 continue;
             }
             let (ox, oy) = (&m.offset[0][..n], &m.offset[1][..n]);
-            let x1 = &mut scratch.x1[..n];
-            let x2 = &mut scratch.x2[..n];
             let root = &scratch.root[..n];
             let inv_e = &scratch.inv_e[..n];
             let inv_de = &scratch.inv_de[..nk];
             // Offsets at the current radius r̂/√e (eq. 1.1).
-            for j in 0..n {
-                x1[j] = ox[j] * root[j];
-                x2[j] = oy[j] * root[j];
+            {
+                let x1 = &mut scratch.x1[..n];
+                let x2 = &mut scratch.x2[..n];
+                for j in 0..n {
+                    x1[j] = ox[j] * root[j];
+                    x2[j] = oy[j] * root[j];
+                }
             }
+            let (x1, x2) = (&scratch.x1[..n], &scratch.x2[..n]);
             // q_k = κ_k × x̄_k + x'_k (eq. 2.1), x₃ = 0; slot k + 1 holds point k.
             {
                 let [ref mut q1, ref mut q2, ref mut q3] = scratch.q;
@@ -478,27 +515,30 @@ impl MuscleModel {
             );
             let inv_l0 = &m.inv_rest_length[..n];
             let fmax = &m.max_force[..n];
-            let fl = m.force_length;
+            let acc = Accumulators {
+                f: [&mut *fx, &mut *fy, &mut *fz],
+                c: [&mut *cx, &mut *cy, &mut *cz],
+            };
+            let input = FibreInput {
+                sigma: [sx, sy, sz],
+                q: [q1, q2, q3],
+                x: [&scratch.x1[..n], &scratch.x2[..n]],
+                a,
+                inv_e,
+                inv_l0,
+                fmax,
+            };
+            // One monomorphic loop per (kind, curve): no branch inside the element loop.
             let transverse = m.kind == FibreKind::Transverse;
-            for j in 0..n {
-                // Eq. 2.2: ν^m_j = ν_j + ½(q_{j−1} + q_j).
-                let v = [
-                    sx[j] + 0.5 * (q1[j] + q1[j + 1]),
-                    sy[j] + 0.5 * (q2[j] + q2[j + 1]),
-                    1.0 + sz[j] + 0.5 * (q3[j] + q3[j + 1]),
-                ];
-                let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                let ell = if transverse { 1.0 / len.sqrt() } else { len };
-                let f = fl.value(ell * inv_l0[j]);
-                // Eq. 2.4–2.5: n = F t, F = ς a σ_max f_ℓ φ Â / e.
-                let s = a[j] * fmax[j] * f * inv_e[j] / len;
-                let nn = [s * v[0], s * v[1], s * v[2]];
-                fx[j] += nn[0];
-                fy[j] += nn[1];
-                fz[j] += nn[2];
-                cx[j] += x2[j] * nn[2];
-                cy[j] -= x1[j] * nn[2];
-                cz[j] += x1[j] * nn[1] - x2[j] * nn[0];
+            match (transverse, m.force_length) {
+                (false, ForceLength::Flat) => fibre_loop(&input, acc, |l| l, |_| 1.0),
+                (false, ForceLength::Cubic) => fibre_loop(&input, acc, |l| l, cubic),
+                (false, ForceLength::Gaussian) => fibre_loop(&input, acc, |l| l, gaussian),
+                (true, ForceLength::Flat) => fibre_loop(&input, acc, |l| 1.0 / l.sqrt(), |_| 1.0),
+                (true, ForceLength::Cubic) => fibre_loop(&input, acc, |l| 1.0 / l.sqrt(), cubic),
+                (true, ForceLength::Gaussian) => {
+                    fibre_loop(&input, acc, |l| 1.0 / l.sqrt(), gaussian)
+                }
             }
         }
         let [ref mut tx, ref mut ty, ref mut tz] = out.couple;
@@ -557,5 +597,78 @@ impl MuscleModel {
             }
             out.couple.add(first_element + j, c);
         }
+    }
+}
+
+/// COOMM's cubic force–length curve, branch-free (a select) so that loops over it vectorise.
+#[inline(always)]
+fn cubic(l: f64) -> f64 {
+    let f = ((3.06 * l - 13.64) * l + 18.01) * l - 6.44;
+    if f >= 0.0 && l <= 2.0 {
+        f
+    } else {
+        0.0
+    }
+}
+
+#[inline(always)]
+fn gaussian(l: f64) -> f64 {
+    let z = (l - 1.0) * 4.0;
+    (-0.5 * z * z).exp()
+}
+
+struct FibreInput<'a> {
+    sigma: [&'a [f64]; 3],
+    q: [&'a [f64]; 3],
+    x: [&'a [f64]; 2],
+    a: &'a [f64],
+    inv_e: &'a [f64],
+    inv_l0: &'a [f64],
+    fmax: &'a [f64],
+}
+
+struct Accumulators<'a> {
+    f: [&'a mut [f64]; 3],
+    c: [&'a mut [f64]; 3],
+}
+
+/// Eqs. 2.2–2.5 for one fibre over all elements: ν^m, its length (`length` maps |ν^m| to ℓ),
+/// f_ℓ(ℓ/ℓ°) (`curve`), n^m = F ν^m/|ν^m|, accumulated into n^μ and Σ x × n.
+#[inline(always)]
+fn fibre_loop(
+    i: &FibreInput<'_>,
+    acc: Accumulators<'_>,
+    length: impl Fn(f64) -> f64,
+    curve: impl Fn(f64) -> f64,
+) {
+    let n = i.a.len();
+    let [sx, sy, sz] = i.sigma;
+    let (sx, sy, sz) = (&sx[..n], &sy[..n], &sz[..n]);
+    let [q1, q2, q3] = i.q;
+    let (q1, q2, q3) = (&q1[..n + 1], &q2[..n + 1], &q3[..n + 1]);
+    let (x1, x2) = (&i.x[0][..n], &i.x[1][..n]);
+    let (a, inv_e, inv_l0, fmax) = (i.a, &i.inv_e[..n], &i.inv_l0[..n], &i.fmax[..n]);
+    let Accumulators {
+        f: [fx, fy, fz],
+        c: [cx, cy, cz],
+    } = acc;
+    let (fx, fy, fz) = (&mut fx[..n], &mut fy[..n], &mut fz[..n]);
+    let (cx, cy, cz) = (&mut cx[..n], &mut cy[..n], &mut cz[..n]);
+    for j in 0..n {
+        // Eq. 2.2: ν^m_j = ν_j + ½(q_{j−1} + q_j).
+        let v0 = sx[j] + 0.5 * (q1[j] + q1[j + 1]);
+        let v1 = sy[j] + 0.5 * (q2[j] + q2[j + 1]);
+        let v2 = 1.0 + sz[j] + 0.5 * (q3[j] + q3[j + 1]);
+        let len = (v0 * v0 + v1 * v1 + v2 * v2).sqrt();
+        let f = curve(length(len) * inv_l0[j]);
+        // Eqs. 2.4–2.5: n = F t, F = ς a σ_max f_ℓ φ Â / e.
+        let s = a[j] * fmax[j] * f * inv_e[j] / len;
+        let (n0, n1, n2) = (s * v0, s * v1, s * v2);
+        fx[j] += n0;
+        fy[j] += n1;
+        fz[j] += n2;
+        cx[j] += x2[j] * n2;
+        cy[j] -= x1[j] * n2;
+        cz[j] += x1[j] * n1 - x2[j] * n0;
     }
 }
