@@ -25,6 +25,8 @@
 pub mod banded;
 pub mod controller;
 pub mod error;
+pub mod muscle_design;
+pub mod muscle_shaping;
 pub mod muscle_statics;
 pub mod shaping;
 pub mod solver;
@@ -37,6 +39,10 @@ pub use controller::{
     ShapingControllerConfig, Signals, SphereSpec, TargetPhase, TaskSchedule,
 };
 pub use error::{ShapingError, SolveError, StaticsError, TaskError};
+pub use muscle_design::{
+    DesignConfig, DesignCosts, DesignOutcome, DesignReport, MuscleDesign, ReachTask,
+};
+pub use muscle_shaping::MuscleShapingController;
 pub use muscle_statics::{EquilibriumReport, MuscleStatics, MuscleStaticsError, StaticsConfig};
 pub use shaping::{EnergyShapingController, ShapingConfig};
 pub use solver::{

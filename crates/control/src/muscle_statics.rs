@@ -246,6 +246,7 @@ impl MuscleStatics {
         let mut out = Resultants {
             force: [n0, n1, n2],
             couple: [t0, t1, t2],
+            moment: None,
         };
         self.muscles
             .resultants(act, &strains, &mut self.scratch, &mut out);

@@ -358,6 +358,7 @@ impl InternalLoads {
                     &mut self.muscle_tau.y[k0..k0 + nk],
                     &mut self.muscle_tau.z[k0..k0 + nk],
                 ],
+                moment: None,
             };
             mm.resultants(act, &strains, &mut self.muscle_scratch, &mut out);
             let [ref mut mf, ref mut mtb, ref mut mhh] = self.muscle_pad;

@@ -318,6 +318,9 @@ pub struct Resultants<'a> {
     pub force: [&'a mut [f64]; 3],
     /// τ^μ components per Voronoi point (overwritten).
     pub couple: [&'a mut [f64]; 3],
+    /// If given, the per-element moments C_j = Σ_m x_{m,j} × n^m_j (τ^μ_k = ½(C_k + C_{k+1}))
+    /// are copied here (the design gradient, spec eq. 5.5, needs them per group).
+    pub moment: Option<[&'a mut [f64]; 3]>,
 }
 
 impl MuscleModel {
@@ -541,12 +544,77 @@ impl MuscleModel {
                 }
             }
         }
+        if let Some(mo) = out.moment.as_mut() {
+            mo[0][..n].copy_from_slice(cx);
+            mo[1][..n].copy_from_slice(cy);
+            mo[2][..n].copy_from_slice(cz);
+        }
         let [ref mut tx, ref mut ty, ref mut tz] = out.couple;
         for k in 0..nk {
             tx[k] = 0.5 * (cx[k] + cx[k + 1]);
             ty[k] = 0.5 * (cy[k] + cy[k + 1]);
             tz[k] = 0.5 * (cz[k] + cz[k + 1]);
         }
+    }
+
+    /// Stored energy of the fibres (spec §6.3) [J]: per fibre and element
+    /// W = l̂_j ∫ ς a σ_max φ Â_j f_ℓ(λ(ξ)) dξ from the rest |ν^m| to the current one (4-point
+    /// Gauss–Legendre), with λ(ξ) = ξ/ℓ° (LM, OM) or ξ^{−1/2}/ℓ° (TM). Its gradient equals the
+    /// kernel's loads only up to the 1/e area factor, the current radius and the Voronoi
+    /// averaging (spec §6.1); the Lyapunov test allows for that. Allocates its own scratch (not
+    /// for the step loop).
+    pub fn stored_energy(&self, activation: [&[f64]; N_GROUPS], s: &Strains<'_>) -> f64 {
+        let n = self.n_elements();
+        let nk = n - 1;
+        const GL: [(f64, f64); 4] = [
+            (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+            (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+            (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+            (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+        ];
+        let mut total = 0.0;
+        let mut x = vec![[0.0; 2]; n];
+        let mut q = vec![[0.0; 3]; n + 1];
+        for m in &self.members {
+            let a = &activation[m.group][..n];
+            if a.iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            for j in 0..n {
+                let r = 1.0 / s.dilatation[j].sqrt();
+                x[j] = [m.offset[0][j] * r, m.offset[1][j] * r];
+            }
+            for k in 0..nk {
+                let inv = 1.0 / (self.rest_voronoi[k] * s.voronoi_dilatation[k]);
+                let b = [0.5 * (x[k][0] + x[k + 1][0]), 0.5 * (x[k][1] + x[k + 1][1])];
+                let kap = [s.kappa[0][k], s.kappa[1][k], s.kappa[2][k]];
+                q[k + 1] = [
+                    -kap[2] * b[1] + (x[k + 1][0] - x[k][0]) * inv,
+                    kap[2] * b[0] + (x[k + 1][1] - x[k][1]) * inv,
+                    kap[0] * b[1] - kap[1] * b[0],
+                ];
+            }
+            let transverse = m.kind == FibreKind::Transverse;
+            for j in 0..n {
+                let v = [
+                    s.sigma[0][j] + 0.5 * (q[j][0] + q[j + 1][0]),
+                    s.sigma[1][j] + 0.5 * (q[j][1] + q[j + 1][1]),
+                    1.0 + s.sigma[2][j] + 0.5 * (q[j][2] + q[j + 1][2]),
+                ];
+                let len = crate::math::norm(v);
+                let l0 = 1.0 / m.inv_rest_length[j];
+                let start = if transverse { 1.0 / (l0 * l0) } else { l0 };
+                let (mid, half) = (0.5 * (len + start), 0.5 * (len - start));
+                let mut integral = 0.0;
+                for (t, wt) in GL {
+                    let xi = mid + half * t;
+                    let ell = if transverse { 1.0 / xi.sqrt() } else { xi };
+                    integral += wt * m.force_length.value(ell * m.inv_rest_length[j]);
+                }
+                total += self.rest_length[j] * a[j] * m.max_force[j] * half * integral;
+            }
+        }
+        total
     }
 
     /// The external-load form (spec eqs. 2.8–2.9) of resultants `n_mu` (per element) and

@@ -271,6 +271,7 @@ fn kernel(mm: &MuscleModel, l: &InternalLoads, act: &[Vec<f64>]) -> (Vec<Vec3>, 
         let mut out = Resultants {
             force: [a, b, c],
             couple: [d, e, f],
+            moment: None,
         };
         mm.resultants(groups(act), &s, &mut scratch, &mut out);
     }
