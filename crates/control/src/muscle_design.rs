@@ -479,14 +479,14 @@ impl MuscleDesign {
                 .collect();
             two_loop(&g, &free, &s_hist, &y_hist, &mut d);
             let mut slope: f64 = (0..nv).map(|i| d[i] * g[i]).sum();
-            if !(slope < 0.0) {
+            if slope.is_nan() || slope >= 0.0 {
                 s_hist.clear();
                 y_hist.clear();
                 for i in 0..nv {
                     d[i] = if free[i] { -g[i] } else { 0.0 };
                 }
                 slope = (0..nv).map(|i| d[i] * g[i]).sum();
-                if !(slope < 0.0) {
+                if slope.is_nan() || slope >= 0.0 {
                     outcome = DesignOutcome::Converged;
                     break;
                 }

@@ -26,6 +26,7 @@ impl MuscleShapingController {
     /// `ramp` seconds (≥ 0), updated every `period` seconds (> 0). `target` is the task's tip
     /// point (for the signals), `design_shape` the design's node positions, `design_tip_error`
     /// its tip error [m], `length` the arm's rest length L0 [m].
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         rod: usize,
         activations: Vec<f64>,
