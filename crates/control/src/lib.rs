@@ -22,8 +22,12 @@
 // Component loops `for c in 0..3` index several arrays at once, as the equations do.
 #![allow(clippy::needless_range_loop)]
 
+pub mod banded;
 pub mod controller;
 pub mod error;
+pub mod muscle_design;
+pub mod muscle_shaping;
+pub mod muscle_statics;
 pub mod shaping;
 pub mod solver;
 pub mod statics;
@@ -35,6 +39,11 @@ pub use controller::{
     ShapingControllerConfig, Signals, SphereSpec, TargetPhase, TaskSchedule,
 };
 pub use error::{ShapingError, SolveError, StaticsError, TaskError};
+pub use muscle_design::{
+    DesignConfig, DesignCosts, DesignOutcome, DesignReport, MuscleDesign, ReachTask,
+};
+pub use muscle_shaping::MuscleShapingController;
+pub use muscle_statics::{EquilibriumReport, MuscleStatics, MuscleStaticsError, StaticsConfig};
 pub use shaping::{EnergyShapingController, ShapingConfig};
 pub use solver::{
     OfflineSolver, OnlineConfig, OnlineReport, OnlineSolver, Outcome, Solution, SolveReport,

@@ -1,11 +1,12 @@
 //! Criterion benchmark: time per step of the paper's arm (damping + tip force) for N = 25..1000,
 //! with each kernel this CPU can run (`octoarm_physics::kernel`), interleaved in one process so
-//! that their ratio is measured in the same sitting. Throughput is in elements: criterion's
-//! "thrpt" is element-steps per second (its inverse is the cost per element-step).
+//! that their ratio is measured in the same sitting (throughput in elements: criterion's "thrpt"
+//! is element-steps per second), and of COOMM's muscular arm (muscles-3d spec §9: N = 100,
+//! dt = 1e-5 s, all seven muscle groups active, drag, `coomm` damping).
 #![allow(missing_docs)] // criterion_group! generates an undocumented public function
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use octoarm_physics::kernel::Kernel;
-use octoarm_physics::{Damping, Load, Settings, Simulation, StraightRod};
+use octoarm_physics::{Damping, Load, MuscleSpec, Settings, Simulation, StraightRod};
 
 fn arm(n: usize) -> Simulation {
     let (model, state) = StraightRod::paper_arm().with_elements(n).build().unwrap();
@@ -14,6 +15,24 @@ fn arm(n: usize) -> Simulation {
     sim.set_damping(Damping::mass_proportional(10.0)).unwrap();
     sim.add_load(Load::tip_force(n, [0.0, 2e-5, 0.0])).unwrap();
     // Start from a bent, moving state so that no branch sees only the rest state.
+    sim.run(2000).unwrap();
+    sim
+}
+
+fn muscular_arm() -> Simulation {
+    let (model, state) = StraightRod::coomm_arm().build().unwrap();
+    let n = model.n_elements;
+    let drag = Load::coomm_drag(&model);
+    let mut sim = Simulation::new(model, state, Settings::with_dt(1e-5)).unwrap();
+    sim.set_damping(Damping::coomm(1050.0, 0.012)).unwrap();
+    sim.add_load(drag).unwrap();
+    sim.set_muscles(Some(MuscleSpec::coomm())).unwrap();
+    for g in 0..7 {
+        let a: Vec<f64> = (0..n)
+            .map(|j| 0.1 + 0.05 * g as f64 + 0.1 * (j as f64 / n as f64))
+            .collect();
+        sim.set_activation(g, &a).unwrap();
+    }
     sim.run(2000).unwrap();
     sim
 }
@@ -31,6 +50,9 @@ fn bench_step(c: &mut Criterion) {
             });
         }
     }
+    let mut sim = muscular_arm();
+    group.throughput(Throughput::Elements(100));
+    group.bench_function("muscular_arm_100", |b| b.iter(|| sim.step().unwrap()));
     group.finish();
 }
 

@@ -1,7 +1,8 @@
 //! Actuation as data: what controllers (the energy-shaping law, later muscles) write between
 //! steps and the stepper reads in its load stage. Per element an added internal stress (material
 //! frame), per interior point an added internal couple (material), per node an external force
-//! (lab) and per element an external couple (material). The internal part enters exactly as a
+//! (lab) and per element an external couple (material), and the muscle activations `[7][n]`
+//! (group-major, system element order; read only for rods with muscles). The internal part enters exactly as a
 //! change of the constitutive stresses would (spec §4 with n + δn and τ + δτ); the stepper
 //! never calls back into a controller.
 
@@ -20,8 +21,11 @@ pub struct Actuation {
     internal_couple: Vec<Vec3>,
     force: Vec<Vec3>,
     couple: Vec<Vec3>,
+    // Muscle activations, group-major: entry g · n_elements + j is group g on element j.
+    activation: Vec<f64>,
     internal_on: bool,
     external_on: bool,
+    muscles_on: bool,
 }
 
 /// Mutable access to the internal part of an actuation.
@@ -48,8 +52,10 @@ impl Actuation {
             internal_couple: vec![[0.0; 3]; n_interior],
             force: vec![[0.0; 3]; n_nodes],
             couple: vec![[0.0; 3]; n_elements],
+            activation: vec![0.0; crate::muscles::N_GROUPS * n_elements],
             internal_on: false,
             external_on: false,
+            muscles_on: false,
         }
     }
 
@@ -64,8 +70,42 @@ impl Actuation {
         self.internal_couple.fill([0.0; 3]);
         self.force.fill([0.0; 3]);
         self.couple.fill([0.0; 3]);
+        self.activation.fill(0.0);
         self.internal_on = false;
         self.external_on = false;
+        self.muscles_on = false;
+    }
+
+    /// The muscle activations for writing, group-major (`[7][n_elements]`: entry g · n + j is
+    /// group g on element j, system element order); switches them on. Values belong in [0, 1].
+    pub fn activations_mut(&mut self) -> &mut [f64] {
+        self.muscles_on = true;
+        &mut self.activation
+    }
+
+    /// The muscle activations, group-major `[7][n_elements]`.
+    pub fn activations(&self) -> &[f64] {
+        &self.activation
+    }
+
+    /// Activation of group `g` on every element of the system.
+    pub fn group_activation(&self, g: usize) -> &[f64] {
+        let ne = self.internal_stress.len();
+        &self.activation[g * ne..(g + 1) * ne]
+    }
+
+    /// Whether the muscle activations are on.
+    pub fn has_muscles(&self) -> bool {
+        self.muscles_on
+    }
+
+    /// The seven groups' activations on elements `range` (one rod).
+    pub fn rod_activations(
+        &self,
+        range: std::ops::Range<usize>,
+    ) -> [&[f64]; crate::muscles::N_GROUPS] {
+        let ne = self.internal_stress.len();
+        std::array::from_fn(|g| &self.activation[g * ne + range.start..g * ne + range.end])
     }
 
     /// The internal part, for writing; switches it on.
@@ -124,6 +164,7 @@ impl Actuation {
             .chain(&self.force)
             .chain(&self.couple)
             .flatten()
+            .chain(&self.activation)
             .all(|v| v.is_finite())
     }
 

@@ -36,6 +36,15 @@ pub enum AnalyticalDamper {
         /// Rotational coefficient [kg m²/s].
         rotational: f64,
     },
+    /// Per-DOF rates [1/s]: every node's velocity decays at `translational`, component c of
+    /// every element's ω at `rotational[c]` (exact decay, no dilatation factor). The `coomm`
+    /// preset (`Damping::coomm`) is of this kind.
+    Rates {
+        /// Node rate [1/s].
+        translational: f64,
+        /// Element rates about d1, d2, d3 [1/s].
+        rotational: [f64; 3],
+    },
     /// The deprecated parameterisation with a constant ν [1/s] scaled by element mass for rotation.
     Legacy {
         /// Rate [1/s].
@@ -60,6 +69,23 @@ impl Damping {
         }
     }
 
+    /// COOMM's rod damping (muscles-3d spec §3.2): PyElastica's damper with ν_j = c (r̂_j/r_b)² on
+    /// forces and c (r̂_j/r_b)⁴ on torques, c = 0.05, is a uniform-rate damper with node rate
+    /// c/(ρπr_b²) and element rates 4c/(ρπr_b⁴) about d1, d2 and half that about d3. `density` ρ
+    /// [kg/m³] and `base_radius` r_b [m] of the arm.
+    pub fn coomm(density: f64, base_radius: f64) -> Self {
+        let c = 0.05;
+        let pi = std::f64::consts::PI;
+        let rot = 4.0 * c / (density * pi * base_radius.powi(4));
+        Self {
+            analytical: Some(AnalyticalDamper::Rates {
+                translational: c / (density * pi * base_radius * base_radius),
+                rotational: [rot, rot, 0.5 * rot],
+            }),
+            ..Self::default()
+        }
+    }
+
     /// Check every coefficient (finite, ≥ 0).
     pub fn validate(&self) -> Result<(), ModelError> {
         non_negative("damping.rate", self.rate)?;
@@ -75,6 +101,15 @@ impl Damping {
             }) => {
                 non_negative("damping.translational", translational)?;
                 non_negative("damping.rotational", rotational)?;
+            }
+            Some(AnalyticalDamper::Rates {
+                translational,
+                rotational,
+            }) => {
+                non_negative("damping.translational", translational)?;
+                for r in rotational {
+                    non_negative("damping.rotational", r)?;
+                }
             }
         }
         Ok(())

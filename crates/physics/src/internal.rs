@@ -6,6 +6,7 @@
 
 use crate::math::{cross, dot, log_relative, mat_t_vec, mat_vec, Mat3, Vec3};
 use crate::model::RodModel;
+use crate::muscles::{MuscleModel, MuscleScratch, Resultants, Strains, N_GROUPS};
 use crate::state::{RodAccess, RodState, RodView, SystemState};
 use crate::store::Vec3s;
 
@@ -46,7 +47,23 @@ pub struct InternalLoads {
     // The rod's frames gathered into 3×3 matrices once per evaluation: loops A and B read each
     // frame whole (one contiguous load instead of nine streams, fewer live pointers).
     frames: Vec<Mat3>,
+    /// Muscle force resultant n^μ [N] (material) per element of the last evaluation with
+    /// muscles (spec eq. 2.5; zero where a rod had none).
+    pub muscle_n: Vec3s,
+    /// Muscle couple resultant τ^μ [N m] (material) per interior point of the last evaluation.
+    pub muscle_tau: Vec3s,
+    /// The muscles' share of `force` [N] (lab) per node, in the last evaluation with muscles.
+    pub muscle_force: Vec3s,
+    /// The muscles' share of `torque` [N m] (material) per element, in the last evaluation.
+    pub muscle_couple: Vec3s,
+    muscle_scratch: MuscleScratch,
+    // Per rod, padded to its n + 1 nodes: Q_jᵀ n^μ_j, and τ^μ and ½ D̂ κ × τ^μ in slot k + 1.
+    muscle_pad: [Vec<Vec3>; 3],
 }
+
+/// Muscles of one rod in an internal-load evaluation: the model and the activation of each group
+/// on the rod's elements.
+pub type MuscleInput<'a> = (&'a MuscleModel, [&'a [f64]; N_GROUPS]);
 
 /// Where one rod's entries start in each index domain of a system.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -89,6 +106,16 @@ impl InternalLoads {
             inv_length: vec![0.0; n_elements],
             inv_eps_cubed: vec![0.0; n_interior],
             frames: vec![[[0.0; 3]; 3]; n_elements],
+            muscle_n: Vec3s::zeros(n_elements),
+            muscle_tau: Vec3s::zeros(n_interior),
+            muscle_force: Vec3s::zeros(n_nodes),
+            muscle_couple: Vec3s::zeros(n_elements),
+            muscle_scratch: MuscleScratch::new(n_elements),
+            muscle_pad: [
+                vec![[0.0; 3]; n_nodes],
+                vec![[0.0; 3]; n_nodes],
+                vec![[0.0; 3]; n_nodes],
+            ],
         }
     }
 
@@ -113,6 +140,35 @@ impl InternalLoads {
         with_velocity_terms: bool,
         energy_consistent: bool,
     ) {
+        self.compute_rod_with_muscles(
+            model,
+            state,
+            at,
+            rest_sigma,
+            rest_kappa,
+            with_velocity_terms,
+            energy_consistent,
+            None,
+        );
+    }
+
+    /// `compute_rod` with the rod's muscles fused into the internal loads (spec eqs. 2.6–2.7):
+    /// f_j = Q_jᵀ(n_j/e_j + n^μ_j), τ̃_k = τ_k/ε_k³ + τ^μ_k, and the shear–stretch couple
+    /// l̂_j ν_j × (n_j/e_j + n^μ_j). The muscles' share is also kept in `muscle_force` /
+    /// `muscle_couple` (for the work of the actuation) and the resultants in `muscle_n` /
+    /// `muscle_tau`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn compute_rod_with_muscles(
+        &mut self,
+        model: &RodModel,
+        state: &SystemState,
+        at: Offsets,
+        rest_sigma: &[Vec3],
+        rest_kappa: &[Vec3],
+        with_velocity_terms: bool,
+        energy_consistent: bool,
+        muscles: Option<MuscleInput<'_>>,
+    ) {
         let n = model.n_elements;
         let rod = state.view(at.node, at.element, n);
         self.compute_view(
@@ -123,6 +179,7 @@ impl InternalLoads {
             rest_kappa,
             with_velocity_terms,
             energy_consistent,
+            muscles,
         );
     }
 
@@ -137,6 +194,7 @@ impl InternalLoads {
         rest_kappa: &[Vec3],
         with_velocity_terms: bool,
         energy_consistent: bool,
+        muscles: Option<MuscleInput<'_>>,
     ) {
         let n = model.n_elements;
         let (e0, n0, k0) = (at.element, at.node, at.interior);
@@ -273,6 +331,92 @@ impl InternalLoads {
         hh[0] = [0.0; 3];
         tb[n] = [0.0; 3];
         hh[n] = [0.0; 3];
+
+        if let Some((mm, act)) = muscles {
+            // Muscles (spec §2), from the strains just computed, fused into f, τ̃ and the
+            // shear–stretch couple (eqs. 2.6–2.7).
+            let strains = Strains {
+                sigma: [
+                    &self.sigma.x[e0..e0 + n],
+                    &self.sigma.y[e0..e0 + n],
+                    &self.sigma.z[e0..e0 + n],
+                ],
+                dilatation: dil,
+                kappa: [
+                    &self.kappa.x[k0..k0 + nk],
+                    &self.kappa.y[k0..k0 + nk],
+                    &self.kappa.z[k0..k0 + nk],
+                ],
+                voronoi_dilatation: eps_out,
+            };
+            let mut out = Resultants {
+                force: [
+                    &mut self.muscle_n.x[e0..e0 + n],
+                    &mut self.muscle_n.y[e0..e0 + n],
+                    &mut self.muscle_n.z[e0..e0 + n],
+                ],
+                couple: [
+                    &mut self.muscle_tau.x[k0..k0 + nk],
+                    &mut self.muscle_tau.y[k0..k0 + nk],
+                    &mut self.muscle_tau.z[k0..k0 + nk],
+                ],
+                moment: None,
+            };
+            mm.resultants(act, &strains, &mut self.muscle_scratch, &mut out);
+            let [ref mut mf, ref mut mtb, ref mut mhh] = self.muscle_pad;
+            let (mf, mtb, mhh) = (
+                &mut mf[n0..n0 + n + 1],
+                &mut mtb[n0..n0 + n + 1],
+                &mut mhh[n0..n0 + n + 1],
+            );
+            for j in 0..n {
+                let g = e0 + j;
+                let nm = self.muscle_n.get(g);
+                let fl = mat_t_vec(&q[j], nm);
+                mf[j] = fl;
+                for c in 0..3 {
+                    f[j][c] += fl[c];
+                }
+                let sg = self.sigma.get(g);
+                let cr = cross([sg[0], sg[1], 1.0 + sg[2]], nm);
+                let cpl = [lr[j] * cr[0], lr[j] * cr[1], lr[j] * cr[2]];
+                self.torque.add(g, cpl);
+                self.muscle_couple.set(g, cpl);
+            }
+            mf[n] = [0.0; 3];
+            mtb[0] = [0.0; 3];
+            mhh[0] = [0.0; 3];
+            mtb[n] = [0.0; 3];
+            mhh[n] = [0.0; 3];
+            for k in 0..nk {
+                let tau = self.muscle_tau.get(k0 + k);
+                let kt = cross(self.kappa.get(k0 + k), tau);
+                let h = 0.5 * dr[k];
+                let kt = [kt[0] * h, kt[1] * h, kt[2] * h];
+                mtb[k + 1] = tau;
+                mhh[k + 1] = kt;
+                for c in 0..3 {
+                    tb[k + 1][c] += tau[c];
+                    hh[k + 1][c] += kt[c];
+                }
+            }
+            for j in 0..n {
+                let mut d = [0.0; 3];
+                for c in 0..3 {
+                    d[c] = mtb[j + 1][c] - mtb[j][c] + mhh[j + 1][c] + mhh[j][c];
+                }
+                self.muscle_couple.add(e0 + j, d);
+            }
+            self.muscle_force.set(n0, mf[0]);
+            for i in 1..=n {
+                let d = [
+                    mf[i][0] - mf[i - 1][0],
+                    mf[i][1] - mf[i - 1][1],
+                    mf[i][2] - mf[i - 1][2],
+                ];
+                self.muscle_force.set(n0 + i, d);
+            }
+        }
 
         if energy_consistent {
             // Eq. 4.5: tension corrections that make the elastic loads the gradient of the

@@ -82,6 +82,18 @@ pub enum Load {
         /// Couple per length [N], material frame.
         couple_per_length: Vec3,
     },
+    /// Morison drag (no added mass) per element (muscles-3d spec eq. 3.1, COOMM's `DragForce`):
+    /// with the element-mean velocity u = Q_j ½(v_j + v_{j+1}) (material), the projected area
+    /// P_j = 2 r_j l_j (current radius r̂_j/√e_j and length) and the wetted area π P_j,
+    /// f = −½ ρ_w (c⊥ P|u₁|u₁, c⊥ P|u₂|u₂, c∥ π P|u₃|u₃), half of Q_jᵀ f on each node.
+    Drag {
+        /// Fluid density ρ_w [kg/m³], ≥ 0.
+        fluid_density: f64,
+        /// Normal drag coefficient c⊥ [-], ≥ 0.
+        normal_coefficient: f64,
+        /// Tangential drag coefficient c∥ [-], ≥ 0.
+        tangential_coefficient: f64,
+    },
 }
 
 impl Load {
@@ -101,6 +113,21 @@ impl Load {
         }
     }
 
+    /// COOMM's drag for `model` (spec §3.1): ρ_w = 1022 kg/m³, c⊥ = 0.41/(ρ_w r̄ l̄),
+    /// c∥ = 0.033/(ρ_w π r̄ l̄), r̄ and l̄ the mean element radius and rest length (for a linear
+    /// taper r̄ = (r_b + r_t)/2).
+    pub fn coomm_drag(model: &RodModel) -> Self {
+        let n = model.n_elements as f64;
+        let r_mean = model.radius.iter().sum::<f64>() / n;
+        let l_mean = model.rest_length.iter().sum::<f64>() / n;
+        let rho = 1022.0;
+        Load::Drag {
+            fluid_density: rho,
+            normal_coefficient: 0.41 / (rho * r_mean * l_mean),
+            tangential_coefficient: 0.033 / (rho * std::f64::consts::PI * r_mean * l_mean),
+        }
+    }
+
     /// The scenario name of the kind.
     pub fn kind_name(&self) -> &'static str {
         match self {
@@ -111,6 +138,7 @@ impl Load {
             Load::FollowerElementCouple { .. } => "follower_element_couple",
             Load::UniformCouple { .. } => "uniform_couple",
             Load::FollowerCouple { .. } => "follower_couple",
+            Load::Drag { .. } => "drag",
         }
     }
 
@@ -145,6 +173,16 @@ impl Load {
             Load::UniformCouple { couple_per_length }
             | Load::FollowerCouple { couple_per_length } => {
                 finite_vec("couple_per_length", couple_per_length).map(|_| ())
+            }
+            Load::Drag {
+                fluid_density,
+                normal_coefficient,
+                tangential_coefficient,
+            } => {
+                crate::error::non_negative("drag.fluid_density", fluid_density)?;
+                crate::error::non_negative("drag.normal_coefficient", normal_coefficient)?;
+                crate::error::non_negative("drag.tangential_coefficient", tangential_coefficient)
+                    .map(|_| ())
             }
         }
     }
@@ -217,6 +255,43 @@ impl Load {
                         first_element + j,
                         [k * (c[0] * l), k * (c[1] * l), k * (c[2] * l)],
                     );
+                }
+            }
+            Load::Drag {
+                fluid_density: rho,
+                normal_coefficient: cn,
+                tangential_coefficient: ct,
+            } => {
+                let (p, v) = (&s.position, &s.velocity);
+                let half = -0.5 * rho * k;
+                let pi = std::f64::consts::PI;
+                for j in 0..n {
+                    let dx = [
+                        p[0][j + 1] - p[0][j],
+                        p[1][j + 1] - p[1][j],
+                        p[2][j + 1] - p[2][j],
+                    ];
+                    let l = (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]).sqrt();
+                    let e = l * model.inv_rest_length[j];
+                    let area = 2.0 * model.radius[j] / e.sqrt() * l;
+                    let vm = [
+                        0.5 * (v[0][j] + v[0][j + 1]),
+                        0.5 * (v[1][j] + v[1][j + 1]),
+                        0.5 * (v[2][j] + v[2][j + 1]),
+                    ];
+                    let q = s.director(j);
+                    let u = mat_vec(&q, vm);
+                    let an = half * cn * area;
+                    let at = half * ct * pi * area;
+                    let f = [
+                        an * u[0].abs() * u[0],
+                        an * u[1].abs() * u[1],
+                        at * u[2].abs() * u[2],
+                    ];
+                    let fl = crate::math::mat_t_vec(&q, f);
+                    let h = [0.5 * fl[0], 0.5 * fl[1], 0.5 * fl[2]];
+                    out.force.add(first_node + j, h);
+                    out.force.add(first_node + j + 1, h);
                 }
             }
         }

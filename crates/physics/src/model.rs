@@ -315,6 +315,28 @@ impl StraightRod {
         }
     }
 
+    /// COOMM's arm (muscles-3d spec §1.1): L0 = 0.2 m, 100 elements, radius 12 mm → 1.2 mm,
+    /// ρ = 1050 kg/m³, E = 10 kPa, G = E/3 (Poisson ratio 0.5), α_c = 0.964 (PyElastica 0.2.2),
+    /// along +x from the origin in the COOMM frame d1 = −e_z, d2 = e_y.
+    pub fn coomm_arm() -> Self {
+        Self {
+            n_elements: 100,
+            length: 0.2,
+            base_diameter: 0.024,
+            tip_diameter: 0.0024,
+            material: Material {
+                density: 1050.0,
+                youngs_modulus: 1.0e4,
+                shear_modulus: 1.0e4 / 3.0,
+                shear_coefficient: 0.964,
+            },
+            base_position: [0.0; 3],
+            direction: [1.0, 0.0, 0.0],
+            normal: [0.0, 0.0, -1.0],
+            rest_curvature: [0.0; 3],
+        }
+    }
+
     /// A uniform rod along +x with d1 = e_y, based at the origin.
     pub fn uniform(n_elements: usize, length: f64, diameter: f64, material: Material) -> Self {
         Self {

@@ -180,6 +180,53 @@ impl Simulation {
         [-f[0], -f[1], -f[2]]
     }
 
+    /// Give the first rod muscles built from `spec` for its model (or remove them with `None`).
+    pub fn set_muscles(
+        &mut self,
+        spec: Option<crate::muscles::MuscleSpec>,
+    ) -> Result<(), ModelError> {
+        let m = match spec {
+            Some(s) => Some(crate::muscles::MuscleModel::new(
+                s,
+                &self.system.rods[0].model,
+            )?),
+            None => None,
+        };
+        self.system.set_muscles(0, m)
+    }
+
+    /// Set the activation of group `g` (0..7) on the first rod's elements (n values in
+    /// [0, 1]); switches the muscle activations on. Errors name the entry out of range.
+    pub fn set_activation(&mut self, g: usize, values: &[f64]) -> Result<(), ModelError> {
+        let rod = &self.system.rods[0];
+        let n = rod.n_elements();
+        if g >= crate::muscles::N_GROUPS {
+            return Err(ModelError::CountOutOfRange {
+                field: "activation group",
+                value: g,
+                range: "[0, 6]",
+            });
+        }
+        if values.len() != n {
+            return Err(ModelError::BadLength {
+                field: "activation",
+                len: values.len(),
+                expected: n,
+            });
+        }
+        if let Some(&v) = values.iter().find(|v| !(0.0..=1.0).contains(*v)) {
+            return Err(ModelError::OutOfRange {
+                field: "activation",
+                value: v,
+                range: "[0, 1]",
+            });
+        }
+        let ne = self.system.n_elements();
+        let e0 = rod.at.element;
+        self.actuation.activations_mut()[g * ne + e0..g * ne + e0 + n].copy_from_slice(values);
+        Ok(())
+    }
+
     /// Advance one step.
     pub fn step(&mut self) -> Result<(), StepError> {
         step::step(

@@ -46,6 +46,8 @@ pub struct Workspace {
     inertia_over_e: Vec<Vec3>,
     actuation: ActuationScratch,
     actuation_used: bool,
+    // Per rod: whether its muscles were on in the last force evaluation.
+    muscles_on: Vec<bool>,
     // Rest strains in force when the system has scheduled changes.
     rest_sigma: Vec<Vec3>,
     rest_kappa: Vec<Vec3>,
@@ -77,6 +79,7 @@ impl Workspace {
             inertia_over_e: vec![[0.0; 3]; ne],
             actuation: ActuationScratch::new(nn, ne),
             actuation_used: false,
+            muscles_on: vec![false; system.rods.len()],
             rest_sigma: system.rest_sigma.clone(),
             rest_kappa: system.rest_kappa.clone(),
             guard: Guard {
@@ -294,8 +297,15 @@ fn step_body(
 
     // 3. Internal loads at x(t+h), Q(t+h) with v(t), ω(t), against the rest strains in force.
     let (rs, rk) = rest_in_force(system, state.time, &mut ws.rest_sigma, &mut ws.rest_kappa);
-    for rod in &system.rods {
-        ws.internal.compute_rod(
+    for (r, rod) in system.rods.iter().enumerate() {
+        let muscles = match &rod.muscles {
+            Some(m) if actuation.has_muscles() => {
+                Some((&**m, actuation.rod_activations(rod.elements())))
+            }
+            _ => None,
+        };
+        ws.muscles_on[r] = muscles.is_some();
+        ws.internal.compute_rod_with_muscles(
             &rod.model,
             state,
             rod.at,
@@ -303,6 +313,7 @@ fn step_body(
             &rk[rod.interior()],
             true,
             settings.energy_consistent,
+            muscles,
         );
     }
 
@@ -551,6 +562,7 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
         let mass = &m.node_mass[..n + 1];
         let mut work = 0.0;
         let mut diss = 0.0;
+        let muscles_on = ws.muscles_on[r];
         for i in first_node..=last_node {
             let a = [
                 (fix[i] + fex[i]) * inv_m[i],
@@ -569,6 +581,9 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
                 0.5 * (old[2] + new[2]),
             ];
             work += dot([fex[i], fey[i], fez[i]], mid);
+            if muscles_on {
+                work += dot(ws.internal.muscle_force.get(nodes.start + i), mid);
+            }
             diss += mass[i] * rate_n[i] * dot(mid, mid);
             vx[i] = new[0];
             vy[i] = new[1];
@@ -610,6 +625,9 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
                 new[c] = decay * old[c] + kick * alpha;
                 let mid = 0.5 * (old[c] + new[c]);
                 work += cq[c] * mid;
+                if muscles_on {
+                    work += ws.internal.muscle_couple.get(elems.start + j)[c] * mid;
+                }
                 diss += j_over_e[j][c] * rate * mid * mid;
             }
             wx[j] = new[0];
@@ -632,6 +650,36 @@ fn apply_analytical_dampers(system: &RodSystem, state: &mut SystemState, ws: &Wo
         let (first_node, last_node, first_elem, end_elem) = free_ranges(rod);
         let dil = &ws.internal.dilatation[e0..e0 + n];
         let mut removed = 0.0;
+        if let AnalyticalDamper::Rates {
+            translational,
+            rotational,
+        } = damper
+        {
+            // Constant factors: one exp per rod and component, not per DOF.
+            let f = (-translational * dt).exp();
+            let g = rotational.map(|r| (-r * dt).exp());
+            let v = &mut state.velocity;
+            for i in n0 + first_node..=n0 + last_node {
+                let old = [v.x[i], v.y[i], v.z[i]];
+                removed += 0.5 * m.node_mass[i - n0] * (1.0 - f * f) * dot(old, old);
+                v.x[i] = f * old[0];
+                v.y[i] = f * old[1];
+                v.z[i] = f * old[2];
+            }
+            let w = &mut state.omega;
+            for j in first_elem..end_elem {
+                let (e, k) = (dil[j], e0 + j);
+                let old = [w.x[k], w.y[k], w.z[k]];
+                for c in 0..3 {
+                    removed += 0.5 * m.inertia[j][c] / e * (1.0 - g[c] * g[c]) * old[c] * old[c];
+                }
+                w.x[k] = g[0] * old[0];
+                w.y[k] = g[1] * old[1];
+                w.z[k] = g[2] * old[2];
+            }
+            state.dissipated[r] += removed;
+            continue;
+        }
         let v = &mut state.velocity;
         for i in first_node..=last_node {
             let f = match damper {
@@ -641,6 +689,7 @@ fn apply_analytical_dampers(system: &RodSystem, state: &mut SystemState, ws: &Wo
                 AnalyticalDamper::Physical { translational, .. } => {
                     (-translational * dt * m.inv_node_mass[i]).exp()
                 }
+                AnalyticalDamper::Rates { translational, .. } => (-translational * dt).exp(),
             };
             let g = n0 + i;
             let old = [v.x[g], v.y[g], v.z[g]];
@@ -657,6 +706,7 @@ fn apply_analytical_dampers(system: &RodSystem, state: &mut SystemState, ws: &Wo
             for (c, wc) in comps.into_iter().enumerate() {
                 let f = match damper {
                     AnalyticalDamper::Uniform { nu } => (-nu * dt).exp(),
+                    AnalyticalDamper::Rates { rotational, .. } => (-rotational[c] * dt).exp(),
                     AnalyticalDamper::Physical { rotational, .. } => {
                         (-rotational * dt * m.inv_inertia[j][c]).exp().powf(e)
                     }

@@ -86,6 +86,8 @@ pub struct Rod {
     pub tip: End,
     /// Damping of this rod.
     pub damping: Damping,
+    /// Muscles of this rod (spec muscles-3d §1–2), driven by the actuation's activations.
+    pub muscles: Option<Arc<crate::muscles::MuscleModel>>,
     pub(crate) at: Offsets,
 }
 
@@ -280,6 +282,31 @@ impl RodSystem {
     pub fn set_damping(&mut self, rod: usize, damping: Damping) -> Result<(), ModelError> {
         damping.validate()?;
         self.rods[rod].damping = damping;
+        Ok(())
+    }
+
+    /// Give rod `rod` muscles (or remove them with `None`). Errors if the muscle model was
+    /// built for another number of elements.
+    pub fn set_muscles(
+        &mut self,
+        rod: usize,
+        muscles: Option<crate::muscles::MuscleModel>,
+    ) -> Result<(), ModelError> {
+        let r = self.rods.get_mut(rod).ok_or(ModelError::CountOutOfRange {
+            field: "muscles.rod",
+            value: rod,
+            range: "[0, number of rods - 1]",
+        })?;
+        if let Some(m) = &muscles {
+            if m.n_elements() != r.n_elements() {
+                return Err(ModelError::BadLength {
+                    field: "muscles (elements of the model it was built for)",
+                    len: m.n_elements(),
+                    expected: r.n_elements(),
+                });
+            }
+        }
+        r.muscles = muscles.map(Arc::new);
         Ok(())
     }
 
@@ -610,6 +637,7 @@ impl SystemBuilder {
                 base: End::new(spec.base.clone(), bx, bq),
                 tip: End::new(spec.tip.clone(), tx, tq),
                 damping: spec.damping,
+                muscles: None,
                 at,
             });
             state.push_rod(&spec.state);

@@ -385,3 +385,30 @@ fn jointed_rod_system_step_and_guard_do_not_allocate() {
         assert!(gap < 0.25 * drop, "joint gap {gap:e} m (drop {drop:e} m)");
     }
 }
+
+// The muscular arm of muscles-3d spec §7: muscles (all seven groups), drag and the `coomm`
+// damper, activations rewritten between steps as a controller would.
+#[test]
+fn muscular_arm_step_does_not_allocate() {
+    let (model, state) = StraightRod::coomm_arm().build().unwrap();
+    let n = model.n_elements;
+    let drag = Load::coomm_drag(&model);
+    let mut sim = Simulation::new(model, state, settings()).unwrap();
+    sim.set_damping(Damping::coomm(1050.0, 0.012)).unwrap();
+    sim.add_load(drag).unwrap();
+    sim.set_muscles(Some(octoarm_physics::MuscleSpec::coomm()))
+        .unwrap();
+    let values = vec![0.2; n];
+    for g in 0..7 {
+        sim.set_activation(g, &values).unwrap();
+    }
+    let count = allocations_during(|| {
+        for k in 0..STEPS {
+            let a = sim.actuation.activations_mut();
+            a[k % a.len()] = 0.4;
+            sim.step().unwrap();
+        }
+        sim.check().unwrap();
+    });
+    assert_eq!(count, 0, "{count} heap allocations in {STEPS} steps");
+}

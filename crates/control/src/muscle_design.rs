@@ -1,0 +1,644 @@
+//! The SE(3) design over activations (muscles-3d spec §5) for reaching: minimise
+//! J(a) = ½ Σ_g Σ_j l̂_j a²_{g,j} + Φ(x(a), Q(a)) over a ∈ [0, 1]^{7×n}, with the tip-point cost
+//! Φ_p = ½ μ_p |p − p*|² (p the last element's midpoint) and the tip-orientation cost
+//! Φ_Q = μ_Q Σ_m ω_m (1 − d_m · d*_m), subject to the exact discrete equilibrium (4.1) of
+//! `MuscleStatics`. The gradient is the exact discrete adjoint: the costate sweep of the forward
+//! map (5.3–5.4), one transposed solve with the factored equilibrium Jacobian, and the
+//! unit-activation group resultants (5.5). The optimiser is projected L-BFGS on b = √l̂ a (5.6),
+//! with group masks (groups held at zero). Grasp costs and COOMM's relaxation are not built yet.
+
+use crate::banded::BandMatrix;
+use crate::muscle_statics::{MuscleStatics, MuscleStaticsError, HALF_BAND};
+use octoarm_physics::math::{cross, dot, log_relative, mat_vec, norm, Mat3};
+use octoarm_physics::muscles::{Resultants, Strains};
+use octoarm_physics::{Vec3, N_GROUPS};
+use std::time::Instant;
+
+/// A reach task: tip point and, optionally, tip frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReachTask {
+    /// Target tip point p* [m].
+    pub target: Vec3,
+    /// Tip-point weight μ_p [N/m] (COOMM: 1e6).
+    pub position_weight: f64,
+    /// Target frame Q* (rows d*_1, d*_2, d*_3, orthonormal) and per-director weights ω; None for
+    /// a point-only task.
+    pub frame: Option<(Mat3, Vec3)>,
+    /// Orientation weight μ_Q [N m] (COOMM: 1e3).
+    pub orientation_weight: f64,
+}
+
+impl ReachTask {
+    /// COOMM's reach task (spec §7 A): target `p`, frame from the base direction b = unit(p)
+    /// and d*_3 = unit(p − tip0) (tip0 the straight arm's tip), d*_2 = unit(b × d*_3),
+    /// d*_1 = d*_2 × d*_3, weights ω = (sin θ, sin θ, sin² θ) with θ = ∠(b, d*_3) — the
+    /// orthonormal equivalent of COOMM's unnormalised target matrix. μ_p = 1e6, μ_Q = 1e3.
+    pub fn coomm(p: Vec3, base: Vec3, tip0: Vec3) -> Self {
+        let unit = |v: Vec3| {
+            let l = norm(v);
+            [v[0] / l, v[1] / l, v[2] / l]
+        };
+        let b = unit([p[0] - base[0], p[1] - base[1], p[2] - base[2]]);
+        let d3 = unit([p[0] - tip0[0], p[1] - tip0[1], p[2] - tip0[2]]);
+        let d2 = unit(cross(b, d3));
+        let d1 = cross(d2, d3);
+        let s = norm(cross(b, d3));
+        Self {
+            target: p,
+            position_weight: 1e6,
+            frame: Some(([d1, d2, d3], [s, s, s * s])),
+            orientation_weight: 1e3,
+        }
+    }
+
+    /// The same task with the target frame rolled by +90° about d*_3: rows (d*_2, −d*_1, d*_3)
+    /// (spec §7 B).
+    pub fn rolled(mut self) -> Self {
+        if let Some((q, w)) = self.frame {
+            self.frame = Some(([q[1], [-q[0][0], -q[0][1], -q[0][2]], q[2]], w));
+        }
+        self
+    }
+}
+
+/// Settings of the design solver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DesignConfig {
+    /// Iteration limit (`NotConverged` beyond). Default 2000.
+    pub max_iterations: usize,
+    /// L-BFGS memory. Default 10.
+    pub memory: usize,
+    /// Stop when ‖P(b − g) − b‖∞ ≤ this × √l̂. Default 1e-9.
+    pub gradient_tolerance: f64,
+    /// Stop when J decreased by less than this (relative) over 20 iterations. Default 1e-9.
+    pub relative_decrease: f64,
+    /// Groups the design may use (false: held at zero, the `GroupMask` of spec §7).
+    pub groups: [bool; N_GROUPS],
+    /// Stop as soon as the tip error [m], θ_Q [rad] and J are all at or below these (e.g. spec
+    /// §7 A's acceptance bounds, for timing); None: run to convergence.
+    pub stop_when: Option<(f64, f64, f64)>,
+}
+
+impl Default for DesignConfig {
+    fn default() -> Self {
+        Self {
+            max_iterations: 2000,
+            memory: 10,
+            gradient_tolerance: 1e-9,
+            relative_decrease: 1e-9,
+            groups: [true; N_GROUPS],
+            stop_when: None,
+        }
+    }
+}
+
+/// Why the design stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DesignOutcome {
+    /// The projected gradient vanished.
+    Converged,
+    /// J stopped decreasing (relative decrease below the tolerance over 20 iterations).
+    Stalled,
+    /// The iteration limit was reached (the last iterate is returned).
+    NotConverged,
+    /// No descent step could be found (equilibrium failures or a non-descent direction).
+    LineSearchFailed,
+    /// The bounds of `DesignConfig::stop_when` were met.
+    BoundsMet,
+}
+
+/// Costs of one evaluation.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DesignCosts {
+    /// J = R + Φ_p + Φ_Q.
+    pub total: f64,
+    /// Activation cost R = ½ Σ l̂ a².
+    pub activation: f64,
+    /// Tip-point cost Φ_p.
+    pub position: f64,
+    /// Tip-orientation cost Φ_Q.
+    pub orientation: f64,
+    /// Tip-point error |p − p*| [m].
+    pub tip_error: f64,
+    /// Orientation error θ_Q = |Log(Q_{n−1} Q*ᵀ)| [rad] (0 without a frame).
+    pub orientation_error: f64,
+}
+
+/// The design report (spec §5.6).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DesignReport {
+    /// Why it stopped.
+    pub outcome: DesignOutcome,
+    /// L-BFGS iterations.
+    pub iterations: usize,
+    /// Cost evaluations (each an equilibrium solve).
+    pub evaluations: usize,
+    /// Newton iterations summed over the evaluations.
+    pub newton_iterations: usize,
+    /// Costs at the result.
+    pub costs: DesignCosts,
+    /// Activations at 0 and at 1.
+    pub at_zero: usize,
+    /// Activations at 1.
+    pub at_one: usize,
+    /// Wall time [s].
+    pub seconds: f64,
+}
+
+/// The design problem of one muscular arm.
+#[derive(Debug, Clone)]
+pub struct MuscleDesign {
+    statics: MuscleStatics,
+    /// Settings.
+    pub config: DesignConfig,
+    grad_w: Vec<f64>,
+    jac: BandMatrix,
+    n_unit: Vec<[Vec<f64>; 3]>,
+    c_unit: Vec<[Vec<f64>; 3]>,
+    tau_tmp: [Vec<f64>; 3],
+    newton_total: usize,
+}
+
+impl MuscleDesign {
+    /// A design problem on `statics` (its model, muscles and base).
+    pub fn new(statics: MuscleStatics) -> Self {
+        let n = statics.n_elements();
+        let m = statics.n_unknowns();
+        let z = |k: usize| [vec![0.0; k], vec![0.0; k], vec![0.0; k]];
+        Self {
+            statics,
+            config: DesignConfig::default(),
+            grad_w: vec![0.0; m],
+            jac: BandMatrix::new(m, HALF_BAND, HALF_BAND),
+            n_unit: (0..N_GROUPS).map(|_| z(n)).collect(),
+            c_unit: (0..N_GROUPS).map(|_| z(n)).collect(),
+            tau_tmp: z(n - 1),
+            newton_total: 0,
+        }
+    }
+
+    /// The statics (its last solution is the design's equilibrium).
+    pub fn statics(&self) -> &MuscleStatics {
+        &self.statics
+    }
+
+    /// Mutable statics (settings).
+    pub fn statics_mut(&mut self) -> &mut MuscleStatics {
+        &mut self.statics
+    }
+
+    /// Task cost Φ and its gradient with respect to the strains (the exact discrete adjoint of
+    /// the forward map, eqs. 5.2–5.4), for strains `w`; `grad` gets ∂Φ/∂w (interleaved).
+    pub fn task_gradient(
+        &self,
+        task: &ReachTask,
+        w: &[f64],
+        grad: Option<&mut [f64]>,
+    ) -> DesignCosts {
+        let st = &self.statics;
+        let n = st.n_elements();
+        let pose = st.pose(w);
+        let x = &pose.position;
+        let q = &pose.director;
+        let p = [
+            0.5 * (x[n - 1][0] + x[n][0]),
+            0.5 * (x[n - 1][1] + x[n][1]),
+            0.5 * (x[n - 1][2] + x[n][2]),
+        ];
+        let d = [
+            p[0] - task.target[0],
+            p[1] - task.target[1],
+            p[2] - task.target[2],
+        ];
+        let mp = task.position_weight;
+        let mut costs = DesignCosts {
+            position: 0.5 * mp * dot(d, d),
+            tip_error: norm(d),
+            ..DesignCosts::default()
+        };
+        let mut tip_couple = [0.0; 3];
+        if let Some((qs, om)) = task.frame {
+            let mq = task.orientation_weight;
+            for m in 0..3 {
+                costs.orientation += mq * om[m] * (1.0 - dot(q[n - 1][m], qs[m]));
+                let c = cross(q[n - 1][m], qs[m]);
+                for k in 0..3 {
+                    tip_couple[k] -= mq * om[m] * c[k];
+                }
+            }
+            costs.orientation_error = log_relative(&q[n - 1], &qs).1;
+        }
+        costs.total = costs.position + costs.orientation;
+        let Some(grad) = grad else {
+            return costs;
+        };
+        // Node loads: the tip point gives ½ μ_p (p − p*) to nodes n − 1 and n.
+        let g_tip = [0.5 * mp * d[0], 0.5 * mp * d[1], 0.5 * mp * d[2]];
+        let g = |i: usize| if i + 1 >= n { g_tip } else { [0.0; 3] };
+        let c = |j: usize| if j + 1 == n { tip_couple } else { [0.0; 3] };
+        // Sweep (5.3): n_{n−1} = −g_n, n_{j−1} = n_j − g_j; m_{k−1} = m_k + (x_{k+1} − x_k) × n_k − c_k.
+        let mut force = [-g(n)[0], -g(n)[1], -g(n)[2]];
+        let mut couple = [0.0; 3];
+        for j in (0..n).rev() {
+            // ∂Φ/∂ν_j = −l̂_j Q_j n_j.
+            let l = st.model().rest_length[j];
+            let qn = mat_vec(&q[j], force);
+            for c3 in 0..3 {
+                grad[6 * j + c3] = -l * qn[c3];
+            }
+            // m_{j−1} from m_j (ghost m_{n−1} = 0).
+            let dx = [
+                x[j + 1][0] - x[j][0],
+                x[j + 1][1] - x[j][1],
+                x[j + 1][2] - x[j][2],
+            ];
+            let t = cross(dx, force);
+            let cj = c(j);
+            for c3 in 0..3 {
+                couple[c3] += t[c3] - cj[c3];
+            }
+            if j >= 1 {
+                let k = j - 1;
+                // ∂Φ/∂κ_k = −D̂_k J_r(−D̂_k κ_k) Q_{k+1} m_k.
+                let dk = st.model().rest_voronoi_length[k];
+                let kap = MuscleStatics::kappa(w, k);
+                let phi = [-dk * kap[0], -dk * kap[1], -dk * kap[2]];
+                let v = mat_vec(&q[k + 1], couple);
+                let jr = right_jacobian(phi, v);
+                for c3 in 0..3 {
+                    grad[6 * k + 3 + c3] = -dk * jr[c3];
+                }
+                let gj = g(j);
+                for c3 in 0..3 {
+                    force[c3] -= gj[c3];
+                }
+            }
+        }
+        costs
+    }
+
+    /// J(a) and, with `grad`, ∂J/∂a (group-major `[7][n]`): equilibrium (warm-started from the
+    /// last one), task cost, adjoint (K ᵀλ = ∇_w Φ with the equilibrium Jacobian) and eq. 5.5.
+    pub fn evaluate(
+        &mut self,
+        task: &ReachTask,
+        a: &[f64],
+        grad: Option<&mut [f64]>,
+    ) -> Result<DesignCosts, MuscleStaticsError> {
+        let rep = self.statics.solve(a, None)?;
+        self.newton_total += rep.newton_iterations;
+        let n = self.statics.n_elements();
+        let lr = self.statics.model().rest_length.clone();
+        let mut reg = 0.0;
+        for g in 0..N_GROUPS {
+            for j in 0..n {
+                reg += 0.5 * lr[j] * a[g * n + j] * a[g * n + j];
+            }
+        }
+        let w = self.statics.solution().to_vec();
+        let Some(grad) = grad else {
+            let mut c = self.task_gradient(task, &w, None);
+            c.activation = reg;
+            c.total += reg;
+            return Ok(c);
+        };
+        let mut gw = std::mem::take(&mut self.grad_w);
+        let mut c = self.task_gradient(task, &w, Some(&mut gw));
+        c.activation = reg;
+        c.total += reg;
+        // Adjoint: Kᵀ λ = ∇_w Φ.
+        let mut jac = std::mem::replace(&mut self.jac, BandMatrix::new(0, 0, 0));
+        self.statics.jacobian_fd(&w, a, &mut jac);
+        let factored = jac.factor();
+        if factored.is_ok() {
+            jac.solve_transposed(&mut gw);
+        }
+        self.jac = jac;
+        if let Err(e) = factored {
+            self.grad_w = gw;
+            return Err(MuscleStaticsError::EquilibriumFailed {
+                iteration: e.column,
+                residual: f64::NAN,
+            });
+        }
+        // Unit-activation resultants per group at the solution (spec eq. 5.5).
+        self.unit_resultants(&w);
+        for g in 0..N_GROUPS {
+            let (nu, cu) = (&self.n_unit[g], &self.c_unit[g]);
+            for j in 0..n {
+                let mut v = lr[j] * a[g * n + j];
+                for c3 in 0..3 {
+                    v -= gw[6 * j + c3] * nu[c3][j];
+                    let mut lk = 0.0;
+                    if j >= 1 {
+                        lk += gw[6 * (j - 1) + 3 + c3];
+                    }
+                    if j + 1 < n {
+                        lk += gw[6 * j + 3 + c3];
+                    }
+                    v -= 0.5 * lk * cu[c3][j];
+                }
+                grad[g * n + j] = v;
+            }
+        }
+        self.grad_w = gw;
+        Ok(c)
+    }
+
+    fn unit_resultants(&mut self, w: &[f64]) {
+        let st = &self.statics;
+        let n = st.n_elements();
+        let model = st.model();
+        let mut sigma = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut dil = vec![0.0; n];
+        let mut kappa = [vec![0.0; n - 1], vec![0.0; n - 1], vec![0.0; n - 1]];
+        let mut eps = vec![0.0; n - 1];
+        for j in 0..n {
+            let v = MuscleStatics::nu(w, j);
+            sigma[0][j] = v[0];
+            sigma[1][j] = v[1];
+            sigma[2][j] = v[2] - 1.0;
+            dil[j] = norm(v);
+        }
+        for k in 0..n - 1 {
+            let v = MuscleStatics::kappa(w, k);
+            for c in 0..3 {
+                kappa[c][k] = v[c];
+            }
+            eps[k] = 0.5 * (model.rest_length[k] * dil[k] + model.rest_length[k + 1] * dil[k + 1])
+                / model.rest_voronoi_length[k];
+        }
+        let strains = Strains {
+            sigma: [&sigma[0], &sigma[1], &sigma[2]],
+            dilatation: &dil,
+            kappa: [&kappa[0], &kappa[1], &kappa[2]],
+            voronoi_dilatation: &eps,
+        };
+        let ones = vec![1.0; n];
+        let zeros = vec![0.0; n];
+        let mut scratch = octoarm_physics::muscles::MuscleScratch::new(n);
+        for g in 0..N_GROUPS {
+            let act: [&[f64]; N_GROUPS] =
+                std::array::from_fn(|h| if h == g { &ones[..] } else { &zeros[..] });
+            let [n0, n1, n2] = &mut self.n_unit[g];
+            let [c0, c1, c2] = &mut self.c_unit[g];
+            let [t0, t1, t2] = &mut self.tau_tmp;
+            let mut out = Resultants {
+                force: [n0, n1, n2],
+                couple: [t0, t1, t2],
+                moment: Some([c0, c1, c2]),
+            };
+            st.muscles()
+                .resultants(act, &strains, &mut scratch, &mut out);
+        }
+    }
+
+    /// Design activations for `task` from `a0` (group-major `[7][n]`, clipped to the bounds)
+    /// by projected L-BFGS on b = √l̂ a (spec §5.6).
+    pub fn solve(&mut self, task: &ReachTask, a0: &[f64]) -> (Vec<f64>, DesignReport) {
+        let start = Instant::now();
+        self.newton_total = 0;
+        let n = self.statics.n_elements();
+        let nv = N_GROUPS * n;
+        let lr = self.statics.model().rest_length.clone();
+        let scale: Vec<f64> = (0..nv).map(|i| lr[i % n].sqrt()).collect();
+        let upper: Vec<f64> = (0..nv)
+            .map(|i| {
+                if self.config.groups[i / n] {
+                    scale[i]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let proj = |b: &mut [f64]| {
+            for (v, u) in b.iter_mut().zip(&upper) {
+                *v = v.clamp(0.0, *u);
+            }
+        };
+        let to_a = |b: &[f64], a: &mut [f64]| {
+            for i in 0..nv {
+                a[i] = (b[i] / scale[i]).clamp(0.0, 1.0);
+            }
+        };
+        let mut b: Vec<f64> = (0..nv).map(|i| a0[i] * scale[i]).collect();
+        proj(&mut b);
+        let mut a = vec![0.0; nv];
+        to_a(&b, &mut a);
+        let mut ga = vec![0.0; nv];
+        let mut evaluations = 1;
+        let mut costs = match self.evaluate(task, &a, Some(&mut ga)) {
+            Ok(c) => c,
+            Err(_) => {
+                let report = self.report(
+                    DesignOutcome::LineSearchFailed,
+                    0,
+                    1,
+                    DesignCosts::default(),
+                    &a,
+                    start,
+                );
+                return (a, report);
+            }
+        };
+        let mut g: Vec<f64> = (0..nv).map(|i| ga[i] / scale[i]).collect();
+        let mut s_hist: Vec<Vec<f64>> = Vec::new();
+        let mut y_hist: Vec<Vec<f64>> = Vec::new();
+        let mut history = vec![costs.total];
+        let mut outcome = DesignOutcome::NotConverged;
+        let mut it = 0;
+        let (mut bt, mut gt, mut at) = (vec![0.0; nv], vec![0.0; nv], vec![0.0; nv]);
+        let mut d = vec![0.0; nv];
+        let tol =
+            self.config.gradient_tolerance * scale.iter().copied().fold(f64::INFINITY, f64::min);
+        let met = |c: &DesignCosts, stop: Option<(f64, f64, f64)>| {
+            stop.is_some_and(|(tip, angle, j)| {
+                c.tip_error <= tip && c.orientation_error <= angle && c.total <= j
+            })
+        };
+        while it < self.config.max_iterations {
+            if met(&costs, self.config.stop_when) {
+                outcome = DesignOutcome::BoundsMet;
+                break;
+            }
+            // Projected-gradient test.
+            let pg = (0..nv)
+                .map(|i| ((b[i] - g[i]).clamp(0.0, upper[i]) - b[i]).abs())
+                .fold(0.0, f64::max);
+            if pg <= tol {
+                outcome = DesignOutcome::Converged;
+                break;
+            }
+            it += 1;
+            // Free set: not at a bound with the gradient pointing outward.
+            let free: Vec<bool> = (0..nv)
+                .map(|i| {
+                    upper[i] > 0.0
+                        && !((b[i] <= 0.0 && g[i] > 0.0) || (b[i] >= upper[i] && g[i] < 0.0))
+                })
+                .collect();
+            two_loop(&g, &free, &s_hist, &y_hist, &mut d);
+            let mut slope: f64 = (0..nv).map(|i| d[i] * g[i]).sum();
+            if slope.is_nan() || slope >= 0.0 {
+                s_hist.clear();
+                y_hist.clear();
+                for i in 0..nv {
+                    d[i] = if free[i] { -g[i] } else { 0.0 };
+                }
+                slope = (0..nv).map(|i| d[i] * g[i]).sum();
+                if slope.is_nan() || slope >= 0.0 {
+                    outcome = DesignOutcome::Converged;
+                    break;
+                }
+            }
+            let mut alpha = 1.0;
+            let mut accepted = None;
+            for _ in 0..30 {
+                for i in 0..nv {
+                    bt[i] = b[i] + alpha * d[i];
+                }
+                proj(&mut bt);
+                to_a(&bt, &mut at);
+                evaluations += 1;
+                if let Ok(ct) = self.evaluate(task, &at, Some(&mut ga)) {
+                    let dec: f64 = (0..nv).map(|i| g[i] * (bt[i] - b[i])).sum();
+                    if ct.total <= costs.total + 1e-4 * dec.min(0.0) && ct.total < costs.total {
+                        for i in 0..nv {
+                            gt[i] = ga[i] / scale[i];
+                        }
+                        accepted = Some(ct);
+                        break;
+                    }
+                }
+                alpha *= 0.5;
+            }
+            let Some(ct) = accepted else {
+                // Restore the equilibrium of the current iterate for the report.
+                let _ = self.evaluate(task, &a, None);
+                outcome = DesignOutcome::LineSearchFailed;
+                break;
+            };
+            let s: Vec<f64> = (0..nv).map(|i| bt[i] - b[i]).collect();
+            let y: Vec<f64> = (0..nv).map(|i| gt[i] - g[i]).collect();
+            let sy: f64 = s.iter().zip(&y).map(|(p, q)| p * q).sum();
+            let (ns, ny) = (
+                s.iter().map(|v| v * v).sum::<f64>().sqrt(),
+                y.iter().map(|v| v * v).sum::<f64>().sqrt(),
+            );
+            if sy > 1e-12 * ns * ny {
+                s_hist.push(s);
+                y_hist.push(y);
+                if s_hist.len() > self.config.memory {
+                    s_hist.remove(0);
+                    y_hist.remove(0);
+                }
+            }
+            b.copy_from_slice(&bt);
+            g.copy_from_slice(&gt);
+            a.copy_from_slice(&at);
+            costs = ct;
+            history.push(costs.total);
+            if history.len() > 20 {
+                let old = history[history.len() - 21];
+                if (old - costs.total) <= self.config.relative_decrease * old.abs() {
+                    outcome = DesignOutcome::Stalled;
+                    break;
+                }
+            }
+        }
+        let report = self.report(outcome, it, evaluations, costs, &a, start);
+        (a, report)
+    }
+
+    fn report(
+        &self,
+        outcome: DesignOutcome,
+        iterations: usize,
+        evaluations: usize,
+        costs: DesignCosts,
+        a: &[f64],
+        start: Instant,
+    ) -> DesignReport {
+        DesignReport {
+            outcome,
+            iterations,
+            evaluations,
+            newton_iterations: self.newton_total,
+            costs,
+            at_zero: a.iter().filter(|v| **v <= 0.0).count(),
+            at_one: a.iter().filter(|v| **v >= 1.0).count(),
+            seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+}
+
+/// J_r(φ) v with J_r(φ) = I − (1 − cos θ)/θ² [φ]× + (θ − sin θ)/θ³ [φ]×² (control spec §2.5).
+fn right_jacobian(phi: Vec3, v: Vec3) -> Vec3 {
+    let t2 = dot(phi, phi);
+    let (a, b) = if t2 < 1e-8 {
+        (0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0)
+    } else {
+        let t = t2.sqrt();
+        ((1.0 - t.cos()) / t2, (t - t.sin()) / (t2 * t))
+    };
+    let pv = cross(phi, v);
+    let ppv = cross(phi, pv);
+    [
+        v[0] - a * pv[0] + b * ppv[0],
+        v[1] - a * pv[1] + b * ppv[1],
+        v[2] - a * pv[2] + b * ppv[2],
+    ]
+}
+
+/// L-BFGS two-loop recursion on the free set: d = −H g (zero on the active set).
+fn two_loop(g: &[f64], free: &[bool], s: &[Vec<f64>], y: &[Vec<f64>], d: &mut [f64]) {
+    let nv = g.len();
+    let dotf =
+        |p: &[f64], q: &[f64]| -> f64 { (0..nv).filter(|&i| free[i]).map(|i| p[i] * q[i]).sum() };
+    for i in 0..nv {
+        d[i] = if free[i] { g[i] } else { 0.0 };
+    }
+    let m = s.len();
+    let mut alpha = vec![0.0; m];
+    for k in (0..m).rev() {
+        let rho = dotf(&y[k], &s[k]);
+        if rho <= 0.0 {
+            continue;
+        }
+        alpha[k] = dotf(&s[k], d) / rho;
+        for i in 0..nv {
+            if free[i] {
+                d[i] -= alpha[k] * y[k][i];
+            }
+        }
+    }
+    let gamma = if m > 0 {
+        let sy = dotf(&s[m - 1], &y[m - 1]);
+        let yy = dotf(&y[m - 1], &y[m - 1]);
+        if sy > 0.0 && yy > 0.0 {
+            sy / yy
+        } else {
+            1.0
+        }
+    } else {
+        1.0
+    };
+    for v in d.iter_mut() {
+        *v *= gamma;
+    }
+    for k in 0..m {
+        let rho = dotf(&y[k], &s[k]);
+        if rho <= 0.0 {
+            continue;
+        }
+        let beta = dotf(&y[k], d) / rho;
+        for i in 0..nv {
+            if free[i] {
+                d[i] += (alpha[k] - beta) * s[k][i];
+            }
+        }
+    }
+    for v in d.iter_mut() {
+        *v = -*v;
+    }
+}
