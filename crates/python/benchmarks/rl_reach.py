@@ -193,16 +193,23 @@ def main() -> None:
             return True
 
     record(0)
-    model.learn(args.steps, callback=Every())
-    if not rows or rows[-1]["env_steps"] != model.num_timesteps:
-        record(model.num_timesteps)
+    try:
+        model.learn(args.steps, callback=Every())
+    except KeyboardInterrupt:  # Ctrl-C: keep the curve so far, the model and the figure
+        print("interrupted: saving the curve so far", flush=True)
+    else:
+        if rows[-1]["env_steps"] != model.num_timesteps:
+            record(model.num_timesteps)
     model.save(os.path.join(args.out, "model"))
     plot(rows, args)
 
 
 def plot(rows: list[dict[str, float]], args: argparse.Namespace) -> None:
-    import matplotlib
-
+    try:
+        import matplotlib
+    except ImportError:
+        print("matplotlib is not installed: curve.csv written, no curve.png", flush=True)
+        return
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
