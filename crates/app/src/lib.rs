@@ -35,6 +35,7 @@ mod plot;
 pub mod progress;
 #[cfg(feature = "cli")]
 pub mod projection;
+#[cfg(feature = "cli")]
 pub mod sweep_figures;
 
 use scenario::{fmt_num, fmt_sci, fmt_vec, Scenario, ScenarioError};

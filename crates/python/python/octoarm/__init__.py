@@ -21,8 +21,9 @@ Array arguments take any real dtype (converted to float64) of exactly the stated
 finite entries. Objects can be shared between threads: calls are serialised (a reader waits for
 a running ``step``, with the GIL released). Type stubs ship with the package.
 
-Importing this package registers the Gymnasium environment ``octoarm/ArmReach-v0``
-(see :mod:`octoarm.env`); :mod:`octoarm.sb3` (needs Stable-Baselines3) has ``RustVecEnv``, an
+Importing this package registers the Gymnasium environments ``octoarm/ArmReach-v0``,
+``octoarm/ArmReach-v1`` (the learnable task: reach reward, error observed, incremental
+commands) and ``octoarm/ArmReachGoal-v1`` (goal-conditioned, for HER) (see :mod:`octoarm.env`); :mod:`octoarm.sb3` (needs Stable-Baselines3) has ``RustVecEnv``, an
 SB3 ``VecEnv`` over the Rust vector environment.
 """
 
@@ -69,9 +70,25 @@ def _register() -> None:
             vector_entry_point="octoarm.env:ArmReachVectorEnv",
             max_episode_steps=200,
         )
+    if "octoarm/ArmReach-v1" not in gymnasium.registry:
+        # The learnable task (issue 16): a reward whose last millimetres count, the tip's
+        # error observed, incremental commands; info["is_success"] within 1 cm.
+        gymnasium.register(
+            id="octoarm/ArmReach-v1",
+            entry_point="octoarm.env:ArmReachEnv",
+            vector_entry_point="octoarm.env:ArmReachVectorEnv",
+            max_episode_steps=200,
+            kwargs={"reward": "reach", "observe_error": True, "action": "increment"},
+        )
+    if "octoarm/ArmReachGoal-v1" not in gymnasium.registry:
+        gymnasium.register(
+            id="octoarm/ArmReachGoal-v1",
+            entry_point="octoarm.env:ArmReachGoalEnv",
+            max_episode_steps=200,
+        )
 
 
 _register()
 
-from . import env  # noqa: E402,F401  (ArmReachEnv, ArmReachVectorEnv)
+from . import env  # noqa: E402,F401  (ArmReachEnv, ArmReachVectorEnv, ArmReachGoalEnv)
 from . import sweep  # noqa: E402,F401  (callable: octoarm.sweep(...) runs a sweep)

@@ -42,6 +42,28 @@ by default), clamped at the origin along +x, bending in the x-y plane.
   reward and ``info["tip_distance"]`` are those of the arm at the start of that step (the last
   state the guard passed). Reset before stepping again.
 
+**Task options** (keyword arguments of both environments; ``octoarm/ArmReach-v1`` sets
+``reward="reach", observe_error=True, action="increment"``; v0 keeps the defaults):
+
+* ``reward``: ``"distance"`` (the v0 reward above) or ``"reach"``, a reward whose last
+  millimetres carry signal: ``r = -d / L0 + exp(-d / 1 cm) - effort_weight * mean(a**2)``
+  (d the tip distance [m]; the exponential success bonus is 1 at the target, 0.37 at 1 cm).
+* ``observe_error``: append ``(target - tip) / L0`` (2 values, clipped to [-3, 3]) to the
+  observation: the quantity a reaching policy acts on, given directly.
+* ``action``: ``"absolute"`` (the action is the command, as above) or ``"increment"``: the
+  action moves the command, ``cmd <- clip(cmd + 0.1 * clip(a, -1, 1), -1, 1)``, starting from
+  0 at reset; the command is what the arm receives, the effort term and the "last action"
+  slots of the observation hold it. A policy can then hold a pose with a = 0.
+* ``success_radius`` [m] (default 0.01 = 5 % of L0): ``info["is_success"]`` is
+  ``tip_distance <= success_radius`` after every step (SB3 counts it at episode end).
+
+``ArmReachGoalEnv`` (id ``octoarm/ArmReachGoal-v1``): the goal-conditioned twin for
+hindsight experience replay (SB3's ``HerReplayBuffer``): a ``Dict`` observation with
+``observation`` (the arm: nodes, velocities, rest curvatures, commands; the target is not in
+it), ``achieved_goal`` (tip x, y / L0) and ``desired_goal`` (target x, y / L0), float32; the
+reward is ``compute_reward(achieved_goal, desired_goal, info)``: ``-d / L0 + exp(-d / 1 cm)``
+(no effort term, so that relabelled goals get exactly the reward the environment gave).
+
 ``ArmReachVectorEnv``: ``num_envs`` arms stepped in parallel by Rust threads (rayon,
 ``num_threads``; default all cores), with Gymnasium's next-step autoreset. The physics of
 every arm is sequential and independent, so results do not depend on the thread count.
@@ -160,6 +182,119 @@ def _check_options(options: dict[str, Any] | None, allowed: Sequence[str]) -> di
     return options
 
 
+REWARDS = ("distance", "reach")
+ACTIONS = ("absolute", "increment")
+INCREMENT = 0.1
+"""Largest change of a command per environment step with ``action="increment"``."""
+ERROR_BOUND = 3.0
+SUCCESS_SCALE = 0.01
+"""Length scale [m] of the success bonus ``exp(-d / SUCCESS_SCALE)`` of ``reward="reach"``."""
+
+
+def reach_reward(distance: Any, length: float) -> Any:
+    """``-d / L0 + exp(-d / 1 cm)`` for tip distances ``d`` [m] (scalar or array)."""
+    d = np.asarray(distance, dtype=np.float64)
+    return -d / length + np.exp(-d / SUCCESS_SCALE)
+
+
+class _Task:
+    """What the agent sees, does and is paid on top of the Rust arms (``ArmBatch``): the
+    reward, the optional error observation, absolute or incremental commands. Holds each arm's
+    command for ``action="increment"``."""
+
+    def __init__(
+        self,
+        batch: ArmBatch,
+        reward: str,
+        observe_error: bool,
+        action: str,
+        success_radius: float,
+        effort_weight: float,
+    ) -> None:
+        if reward not in REWARDS:
+            raise ValueError(f"reward = {reward!r} is not one of {', '.join(map(repr, REWARDS))}")
+        if action not in ACTIONS:
+            raise ValueError(f"action = {action!r} is not one of {', '.join(map(repr, ACTIONS))}")
+        if not isinstance(observe_error, (bool, np.bool_)):
+            raise ValueError(f"observe_error = {observe_error!r} must be True or False")
+        r = float(success_radius)
+        if not (np.isfinite(r) and 0.0 < r <= batch.length):
+            raise ValueError(
+                f"success_radius = {success_radius!r} is outside the allowed range "
+                f"(0, {batch.length}] m"
+            )
+        self.reward = reward
+        self.observe_error = bool(observe_error)
+        self.action = action
+        self.success_radius = r
+        self.effort_weight = float(effort_weight)
+        self.length = batch.length
+        self.n_nodes = (batch.obs_dim - 2 - 2 * batch.action_dim) // 4
+        self.command = np.zeros((batch.n_envs, batch.action_dim))
+
+    def spaces(self, batch: ArmBatch) -> tuple[spaces.Box, spaces.Box]:
+        obs, act = _spaces(batch)
+        if self.observe_error:
+            low = np.concatenate([obs.low, np.full(2, -ERROR_BOUND, dtype=np.float32)])
+            high = np.concatenate([obs.high, np.full(2, ERROR_BOUND, dtype=np.float32)])
+            obs = spaces.Box(low, high, dtype=np.float32)
+        return obs, act
+
+    def tip(self, obs: ObsArray) -> FloatArray:
+        """Tip x, y [m] of each row of Rust observations (nodes are first, / L0)."""
+        n = self.n_nodes
+        return obs[:, 2 * (n - 1) : 2 * n].astype(np.float64) * self.length
+
+    def target(self, obs: ObsArray) -> FloatArray:
+        n = self.n_nodes
+        return obs[:, 4 * n : 4 * n + 2].astype(np.float64) * self.length
+
+    def observe(self, obs: ObsArray) -> ObsArray:
+        if not self.observe_error:
+            return obs
+        n = self.n_nodes
+        err = obs[:, 4 * n : 4 * n + 2] - obs[:, 2 * (n - 1) : 2 * n]
+        err = np.clip(err, -ERROR_BOUND, ERROR_BOUND).astype(np.float32)
+        return np.concatenate([obs, err], axis=1)
+
+    def reset(self, indices: Sequence[int]) -> None:
+        self.command[list(indices)] = 0.0
+
+    def commands(self, actions: Any, name: str, n: int) -> Any:
+        """The commands the arms receive for ``actions``: with absolute actions, ``actions``
+        itself (``ArmBatch.step`` checks it); else the moved commands (checked here, named
+        ``name``, shape (n, action_dim))."""
+        if self.action == "absolute":
+            return actions
+        actions = _real_array(actions, name, (n, self.command.shape[1]))
+        self.command = np.clip(
+            self.command + INCREMENT * np.clip(actions, -1.0, 1.0), -1.0, 1.0
+        )
+        return self.command.copy()
+
+    def rewards(self, rust_reward: FloatArray, distance: FloatArray, cmd: FloatArray) -> FloatArray:
+        if self.reward == "distance":
+            return rust_reward
+        # (After ArmBatch.step accepted cmd, it converts to float64 of the right shape.)
+        effort = np.mean(np.clip(np.asarray(cmd, dtype=np.float64), -1.0, 1.0) ** 2, axis=1)
+        out: FloatArray = reach_reward(distance, self.length) - self.effort_weight * effort
+        return out
+
+    def success(self, distance: FloatArray) -> npt.NDArray[np.bool_]:
+        return np.asarray(distance <= self.success_radius)
+
+
+def _task_args(config: dict[str, Any]) -> dict[str, Any]:
+    """Split the task options out of ``config`` (the rest goes to ``ArmBatch``)."""
+    return {
+        "reward": config.pop("reward", "distance"),
+        "observe_error": config.pop("observe_error", False),
+        "action": config.pop("action", "absolute"),
+        "success_radius": config.pop("success_radius", 0.01),
+        "effort_weight": config.get("effort_weight", 0.01),
+    }
+
+
 class ArmReachEnv(gym.Env[Array, Array]):
     """One planar arm reaching a target; see the module docstring for spaces and reward.
 
@@ -187,10 +322,12 @@ class ArmReachEnv(gym.Env[Array, Array]):
         _check_render("ArmReachEnv", render_mode, render_width, render_height)
         self.render_mode = render_mode
         self.render_size = (int(render_height), int(render_width))
+        task = _task_args(config)
         self._batch = ArmBatch(n_envs=1, num_threads=1, **config)
+        self._task = _Task(self._batch, **task)
         # Frames per second of a video in real time: one frame per control period.
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self._batch.control_period)}
-        self.observation_space, self.action_space = _spaces(self._batch)
+        self.observation_space, self.action_space = self._task.spaces(self._batch)
         self.control_period: float = self._batch.control_period
         self.target: FloatArray = np.zeros(2)
 
@@ -203,13 +340,20 @@ class ArmReachEnv(gym.Env[Array, Array]):
             self.target = _real_array(options["target"], "target", (2,))
         else:
             self.target = _sample_targets(self.np_random, 1)[0]
-        obs = self._batch.reset(self.target[None, :])
+        self._task.reset([0])
+        obs = self._task.observe(self._batch.reset(self.target[None, :]))
         return obs[0], {}
 
     def step(self, action: Any) -> tuple[ObsArray, float, bool, bool, dict[str, Any]]:
         a = _real_array(action, "action", (self._batch.action_dim,))
-        obs, reward, distance, failures = self._batch.step(a[None, :])
-        info: dict[str, Any] = {"tip_distance": float(distance[0])}
+        cmd = self._task.commands(a[None, :], "action", 1)
+        obs, reward, distance, failures = self._batch.step(cmd)
+        obs = self._task.observe(obs)
+        reward = self._task.rewards(reward, distance, cmd)
+        info: dict[str, Any] = {
+            "tip_distance": float(distance[0]),
+            "is_success": bool(self._task.success(distance)[0]),
+        }
         unstable = failures[0] is not None
         if unstable:
             info["unstable"] = str(failures[0])
@@ -266,10 +410,14 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
             self.metadata = {**self.metadata, "autoreset_mode": AutoresetMode.NEXT_STEP}
         except ImportError:  # pragma: no cover
             pass
+        task = _task_args(config)
         self._batch = ArmBatch(n_envs=num_envs, num_threads=num_threads, **config)
+        self._task = _Task(self._batch, **task)
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
-        self.single_observation_space, self.single_action_space = _spaces(self._batch)
+        self.single_observation_space, self.single_action_space = self._task.spaces(
+            self._batch
+        )
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.control_period: float = self._batch.control_period
@@ -320,7 +468,8 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
         idx = list(indices)
         if idx:
             new = np.array(rows, dtype=np.float64).reshape(len(idx), 2)
-            self._obs = self._batch.reset(new, idx)
+            self._task.reset(idx)
+            self._obs = self._task.observe(self._batch.reset(new, idx))
             self.targets[idx] = new
             self._elapsed[idx] = 0
             self._autoreset[idx] = False
@@ -332,7 +481,10 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
     ) -> tuple[ObsArray, FloatArray, FloatArray, list[str | None]]:
         """Step every arm without autoreset: (obs, rewards, tip distances, the guard's message
         or None per arm). Counts the step in each arm's episode."""
-        obs, reward, distance, failures = self._batch.step(actions)
+        cmd = self._task.commands(actions, "actions", self.num_envs)
+        obs, reward, distance, failures = self._batch.step(cmd)
+        obs = self._task.observe(obs)
+        reward = self._task.rewards(reward, distance, cmd)
         self._obs = obs
         self._elapsed += 1
         return obs, reward, distance, [None if f is None else str(f) for f in failures]
@@ -394,6 +546,8 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
         if not done.all():
             info["tip_distance"] = distance
             info["_tip_distance"] = ~done
+            info["is_success"] = self._task.success(distance) & ~done
+            info["_is_success"] = ~done
         if unstable.any():
             messages = np.full(self.num_envs, None, dtype=object)
             for i in np.flatnonzero(unstable):
@@ -413,3 +567,102 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
     def simulation(self, index: int) -> Simulation:
         """A copy of arm ``index`` as an :class:`octoarm.Simulation`."""
         return self._batch.simulation(index)
+
+
+GOAL_BOUND = 1.5
+"""Bound of the goals (tip and target x, y / L0): the observation's position bound."""
+
+
+class ArmReachGoalEnv(gym.Env[dict[str, Array], Array]):
+    """Goal-conditioned reaching for hindsight experience replay (see the module docstring).
+
+    Keyword arguments: those of :class:`ArmReachEnv` except ``reward`` and ``observe_error``
+    (the reward is the goal reward, the goal is observed apart); ``action`` defaults to
+    ``"increment"``. ``compute_reward(achieved_goal, desired_goal, info)`` works on single goals
+    and on batches (the last axis holds x, y / L0), as SB3's ``HerReplayBuffer`` calls it.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": RENDER_MODES, "render_fps": 100}
+
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        render_width: int = 400,
+        render_height: int = 400,
+        action: str = "increment",
+        **config: Any,
+    ) -> None:
+        for key in ("reward", "observe_error"):
+            if key in config:
+                raise TypeError(
+                    f"ArmReachGoalEnv() got an unexpected keyword argument {key!r}: its reward "
+                    "is the goal reward and the goal is observed apart"
+                )
+        self._env = ArmReachEnv(
+            render_mode=render_mode,
+            render_width=render_width,
+            render_height=render_height,
+            reward="reach",
+            observe_error=False,
+            action=action,
+            **config,
+        )
+        self.render_mode = render_mode
+        self.metadata = self._env.metadata
+        self.length: float = self._env._task.length
+        base = self._env.observation_space
+        assert isinstance(base, spaces.Box)
+        n = self._env._task.n_nodes
+        # Everything but the target (slots 4n, 4n + 1): HER replaces the goal.
+        self._keep = np.r_[0 : 4 * n, 4 * n + 2 : base.shape[0]]
+        goal = spaces.Box(-GOAL_BOUND, GOAL_BOUND, shape=(2,), dtype=np.float32)
+        self.observation_space = spaces.Dict(  # type: ignore[assignment]
+            {
+                "observation": spaces.Box(
+                    base.low[self._keep], base.high[self._keep], dtype=np.float32
+                ),
+                "achieved_goal": goal,
+                "desired_goal": goal,
+            }
+        )
+        self.action_space = self._env.action_space
+        self.control_period = self._env.control_period
+
+    def _dict(self, obs: ObsArray) -> dict[str, ObsArray]:
+        n = self._env._task.n_nodes
+        return {
+            "observation": obs[self._keep],
+            "achieved_goal": obs[2 * (n - 1) : 2 * n].copy(),
+            "desired_goal": obs[4 * n : 4 * n + 2].copy(),
+        }
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, ObsArray], dict[str, Any]]:
+        super().reset(seed=seed)
+        obs, info = self._env.reset(seed=seed, options=options)
+        return self._dict(obs), info
+
+    def step(
+        self, action: Any
+    ) -> tuple[dict[str, ObsArray], float, bool, bool, dict[str, Any]]:
+        obs, _, terminated, truncated, info = self._env.step(action)
+        d = self._dict(obs)
+        reward = float(self.compute_reward(d["achieved_goal"], d["desired_goal"], info))
+        return d, reward, terminated, truncated, info
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
+        """``-d / L0 + exp(-d / 1 cm)``, d the distance [m] between the goals (x, y / L0)."""
+        diff = np.asarray(achieved_goal, dtype=np.float64) - np.asarray(
+            desired_goal, dtype=np.float64
+        )
+        d = np.linalg.norm(diff, axis=-1) * self.length
+        return reach_reward(d, self.length)
+
+    def render(self) -> npt.NDArray[np.uint8] | None:
+        """As :meth:`ArmReachEnv.render`."""
+        return self._env.render()
+
+    def simulation(self) -> Simulation:
+        """A copy of the arm as an :class:`octoarm.Simulation`."""
+        return self._env.simulation()

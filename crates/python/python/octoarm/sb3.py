@@ -103,11 +103,15 @@ class RustVecEnv(VecEnv):  # type: ignore[misc, unused-ignore]
         actions, self._actions = self._actions, None
         obs, reward, distance, failures = self.venv._step_arms(actions)
         unstable = np.array([f is not None for f in failures])
+        success = self.venv._task.success(distance)
         truncated = (self.venv._elapsed >= self.venv.max_episode_steps) | unstable
         dones = truncated.copy()  # never terminated
         infos: list[dict[str, Any]] = []
         for i in range(self.num_envs):
-            info: dict[str, Any] = {"tip_distance": float(distance[i])}
+            info: dict[str, Any] = {
+                "tip_distance": float(distance[i]),
+                "is_success": bool(success[i]),
+            }
             if failures[i] is not None:
                 info["unstable"] = failures[i]
             info["TimeLimit.truncated"] = bool(truncated[i])
