@@ -711,7 +711,7 @@ impl Simulation {
 
     /// Add a rigid sphere obstacle (every rod touches it): centre [m] at t = 0, radius [m] > 0,
     /// velocity [m/s], Coulomb friction (see `add_plane`).
-    #[pyo3(signature = (center, radius, velocity = None, friction = 0.0, kinetic_friction = None),
+    #[pyo3(signature = (center, radius, velocity = None, friction = None, kinetic_friction = None),
         text_signature = "(self, center, radius, velocity=(0.0, 0.0, 0.0), friction=0.0, kinetic_friction=None)")]
     fn add_obstacle(
         &self,
@@ -719,7 +719,7 @@ impl Simulation {
         center: &Bound<'_, PyAny>,
         radius: f64,
         velocity: Option<&Bound<'_, PyAny>>,
-        friction: &Bound<'_, PyAny>,
+        friction: Option<&Bound<'_, PyAny>>,
         kinetic_friction: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let center = read_vec3(center, "center")?;
@@ -739,14 +739,14 @@ impl Simulation {
     /// rods, and Coulomb friction: `friction` the static coefficient (a number, or three numbers
     /// for sliding forward / backward along the rod and laterally), `kinetic_friction` the
     /// kinetic one (default: the static one).
-    #[pyo3(signature = (point, normal, friction = 0.0, kinetic_friction = None),
+    #[pyo3(signature = (point, normal, friction = None, kinetic_friction = None),
         text_signature = "(self, point, normal, friction=0.0, kinetic_friction=None)")]
     fn add_plane(
         &self,
         py: Python<'_>,
         point: &Bound<'_, PyAny>,
         normal: &Bound<'_, PyAny>,
-        friction: &Bound<'_, PyAny>,
+        friction: Option<&Bound<'_, PyAny>>,
         kinetic_friction: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let point = read_vec3(point, "point")?;
@@ -764,7 +764,7 @@ impl Simulation {
     /// Add a rigid finite cylinder (a capsule: every point within `radius` of the axis segment
     /// of `length` centred on `center` along `axis`), moving at `velocity` [m/s], with Coulomb
     /// friction as `add_plane`.
-    #[pyo3(signature = (center, axis, radius, length, velocity = None, friction = 0.0, kinetic_friction = None),
+    #[pyo3(signature = (center, axis, radius, length, velocity = None, friction = None, kinetic_friction = None),
         text_signature = "(self, center, axis, radius, length, velocity=(0.0, 0.0, 0.0), friction=0.0, kinetic_friction=None)")]
     #[allow(clippy::too_many_arguments)]
     fn add_cylinder(
@@ -775,7 +775,7 @@ impl Simulation {
         radius: f64,
         length: f64,
         velocity: Option<&Bound<'_, PyAny>>,
-        friction: &Bound<'_, PyAny>,
+        friction: Option<&Bound<'_, PyAny>>,
         kinetic_friction: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let center = read_vec3(center, "center")?;
@@ -817,10 +817,7 @@ impl Simulation {
         stick_stiffness: f64,
         slip_velocity: f64,
     ) -> PyResult<()> {
-        let rod_friction = match rod_friction {
-            Some(f) => read_friction(f, rod_kinetic_friction)?,
-            None => phys::Friction::NONE,
-        };
+        let rod_friction = read_friction(rod_friction, rod_kinetic_friction)?;
         self.lock(py)
             .set_contact(phys::ContactParams {
                 beta,
@@ -1088,9 +1085,17 @@ pub fn rust_step_rate(py: Python<'_>, sim: &Simulation, steps: u64) -> PyResult<
 /// Friction coefficients from Python: a number or three numbers (forward, backward, lateral)
 /// for the static coefficient, and the kinetic one likewise (default: the static one).
 fn read_friction(
-    static_mu: &Bound<'_, PyAny>,
+    static_mu: Option<&Bound<'_, PyAny>>,
     kinetic: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<phys::Friction> {
+    let Some(static_mu) = static_mu else {
+        if kinetic.is_some() {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "kinetic_friction needs friction (the static coefficient) too",
+            ));
+        }
+        return Ok(phys::Friction::NONE);
+    };
     let three = |o: &Bound<'_, PyAny>, field: &str| -> PyResult<[f64; 3]> {
         if let Ok(x) = o.extract::<f64>() {
             Ok([x; 3])

@@ -239,14 +239,14 @@ class Simulation:
         center: _Vec3,
         radius: float,
         velocity: _Vec3 | None = ...,
-        friction: float | _Vec3 = 0.0,
+        friction: float | _Vec3 | None = None,
         kinetic_friction: float | _Vec3 | None = None,
     ) -> None: ...
     def add_plane(
         self,
         point: _Vec3,
         normal: _Vec3,
-        friction: float | _Vec3 = 0.0,
+        friction: float | _Vec3 | None = None,
         kinetic_friction: float | _Vec3 | None = None,
     ) -> None: ...
     def add_cylinder(
@@ -256,7 +256,7 @@ class Simulation:
         radius: float,
         length: float,
         velocity: _Vec3 | None = ...,
-        friction: float | _Vec3 = 0.0,
+        friction: float | _Vec3 | None = None,
         kinetic_friction: float | _Vec3 | None = None,
     ) -> None: ...
     def set_contact(

@@ -89,7 +89,23 @@ class OctoarmSolver:
     def _damping_rate(scenario: Scenario) -> float:
         return 2.0 * scenario.slowest_frequency() if scenario.quasi_static else 0.0
 
-    def _build(self, scenario: Scenario, n: int, dt: float) -> octoarm.Simulation:
+    @staticmethod
+    def _beta(scenario: Scenario, n: int, stable_dt: float) -> float:
+        """Contact stiffness factor β (k = β E A / l): as stiff as the step allows, a contact
+        frequency of up to the rod's own highest one (ω_c² ≈ 2β E / (ρ l²) on an end node),
+        at least octoarm's default 1."""
+        w2 = (2.0 / stable_dt) ** 2
+        return max(
+            1.0,
+            min(
+                0.25 * w2 * r.material.density * (r.length / n) ** 2 / r.material.youngs_modulus
+                for r in scenario.rods
+            ),
+        )
+
+    def _build(
+        self, scenario: Scenario, n: int, dt: float, beta: float = 1.0
+    ) -> octoarm.Simulation:
         rods = []
         for i, spec in enumerate(scenario.rods):
             m = spec.material
@@ -140,33 +156,37 @@ class OctoarmSolver:
                 raise NotImplementedError(f"octoarm has no obstacle of kind {obstacle!r}")
         rod_mu = max(r.friction for r in scenario.rods)
         sim.set_contact(
+            beta=beta,
             rods=len(scenario.rods) > 1,
             self_contact=bool(scenario.self_contact),
             rod_friction=rod_mu if rod_mu > 0.0 else None,
         )
         return sim
 
-    def _steps(self, scenario: Scenario, n: int, n_frames: int) -> tuple[float, int]:
-        """The time step and the steps per frame: a fraction of octoarm's stable step (which
-        counts the contact springs), rounded down to fill each frame interval."""
+    def _steps(self, scenario: Scenario, n: int, n_frames: int) -> tuple[float, int, float]:
+        """The time step, the steps per frame and the contact stiffness factor: a fraction of
+        octoarm's stable step (which counts the contact springs), rounded down to fill each
+        frame interval."""
         probe = self._build(scenario, n, 1e-6)
+        beta = self._beta(scenario, n, probe.stable_dt)
+        probe = self._build(scenario, n, 1e-6, beta)
         limit = _SAFETY * self.time_step_scale * probe.stable_dt
         interval = scenario.duration / (n_frames - 1)
         per_frame = max(1, math.ceil(interval / limit))
-        return interval / per_frame, per_frame
+        return interval / per_frame, per_frame, beta
 
     # -- the protocol -----------------------------------------------------------------------
 
     def settings(self, scenario: Scenario, *, n_elements: int, n_frames: int) -> dict:
         """The numerical choices for a run, as JSON values."""
-        dt, _ = self._steps(scenario, n_elements, n_frames)
+        dt, _, beta = self._steps(scenario, n_elements, n_frames)
         return {
             "integrator": "position Verlet (explicit), octoarm",
             "time_step": dt,
             "time_step_fraction_of_stable": _SAFETY * self.time_step_scale,
             "clamp_order": self.clamp_order,
             "damping_rate": self._damping_rate(scenario),
-            "contact_beta": 1.0,
+            "contact_beta": beta,
             "contact_zeta": 0.5,
             "friction": "Coulomb: stick spring 0.5 k against obstacles, viscous-capped between rods",
             "rod_contact": len(scenario.rods) > 1,
@@ -174,8 +194,8 @@ class OctoarmSolver:
         }
 
     def run(self, scenario: Scenario, *, n_elements: int, n_frames: int) -> Trajectory:
-        dt, per_frame = self._steps(scenario, n_elements, n_frames)
-        sim = self._build(scenario, n_elements, dt)
+        dt, per_frame, beta = self._steps(scenario, n_elements, n_frames)
+        sim = self._build(scenario, n_elements, dt, beta)
         names = [f"rod{i}" for i in range(len(scenario.rods))]
         positions: list[list[np.ndarray]] = [[] for _ in names]
         directors: list[list[np.ndarray]] = [[] for _ in names]
