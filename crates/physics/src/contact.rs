@@ -390,21 +390,26 @@ fn element_hit(
     })
 }
 
-/// Contact of element j with a plane: at the element's midpoint (u = ½), as PyElastica.
+/// Contact of element j's end `end` (0: node j, 1: node j + 1) with a plane: the penalty is
+/// integrated along the element by the trapezoid rule, half of it at each end node, so that an
+/// element standing on the plane presses with its lower end (a midpoint contact would let that
+/// end sink by half an element) and a flat one with both.
 #[inline]
-fn plane_hit(model: &RodModel, s: &impl RodAccess, j: usize, plane: &Plane) -> Option<Hit> {
+fn plane_hit(
+    model: &RodModel,
+    s: &impl RodAccess,
+    j: usize,
+    end: usize,
+    plane: &Plane,
+) -> Option<Hit> {
     let xa = s.position(j);
     let dx = sub(s.position(j + 1), xa);
     let l = norm(dx);
     let r = current_radius(model, j, l);
-    let mid = [
-        xa[0] + 0.5 * dx[0],
-        xa[1] + 0.5 * dx[1],
-        xa[2] + 0.5 * dx[2],
-    ];
-    let g = r - dot(sub(mid, plane.point), plane.normal);
+    let x = s.position(j + end);
+    let g = r - dot(sub(x, plane.point), plane.normal);
     (g > 0.0).then_some(Hit {
-        u: 0.5,
+        u: end as f64,
         normal: plane.normal,
         penetration: g,
     })
@@ -613,11 +618,24 @@ fn apply_hit(
     params: &ContactParams,
     dt: f64,
     first_node: usize,
+    share: f64,
     stick: &mut Vec3,
     out: &mut ExternalLoads,
 ) {
-    let k = params.beta * model.material.youngs_modulus * model.area[j] / model.rest_length[j];
-    let damping = 2.0 * params.zeta * (k * model.element_mass[j]).sqrt();
+    // `share` of the element's spring and mass at this contact (1, or ½ at each end node).
+    let (k, mass) = if share == 1.0 {
+        (
+            params.beta * model.material.youngs_modulus * model.area[j] / model.rest_length[j],
+            model.element_mass[j],
+        )
+    } else {
+        (
+            share * params.beta * model.material.youngs_modulus * model.area[j]
+                / model.rest_length[j],
+            share * model.element_mass[j],
+        )
+    };
+    let damping = 2.0 * params.zeta * (k * mass).sqrt();
     let (va, vb) = (s.velocity(j), s.velocity(j + 1));
     let vrel = [
         (1.0 - hit.u) * va[0] + hit.u * vb[0] - obstacle_velocity[0],
@@ -641,7 +659,7 @@ fn apply_hit(
     let dx = sub(s.position(j + 1), s.position(j));
     let tangent = scale(1.0 / norm(dx), dx);
     let vt = sub(vrel, scale(vn, hit.normal));
-    let c = params.friction_eta * model.element_mass[j] / dt;
+    let c = params.friction_eta * mass / dt;
     let f = stick_friction(
         vt,
         tangent,
@@ -660,22 +678,24 @@ fn apply_hit(
 /// Number of stick-spring slots the obstacles need for a system of `n_elements` elements: one
 /// per element and obstacle with friction.
 pub(crate) fn stick_slots(obstacles: Obstacles<'_>, n_elements: usize) -> usize {
-    let with = obstacles
+    let with = |f: &Friction| usize::from(!f.is_none());
+    // Planes hold two springs per element (one at each end node).
+    let count = obstacles
         .spheres
         .iter()
-        .filter(|o| !o.friction.is_none())
-        .count()
-        + obstacles
+        .map(|o| with(&o.friction))
+        .sum::<usize>()
+        + 2 * obstacles
             .planes
             .iter()
-            .filter(|o| !o.friction.is_none())
-            .count()
+            .map(|o| with(&o.friction))
+            .sum::<usize>()
         + obstacles
             .cylinders
             .iter()
-            .filter(|o| !o.friction.is_none())
-            .count();
-    with * n_elements
+            .map(|o| with(&o.friction))
+            .sum::<usize>();
+    count * n_elements
 }
 
 /// Add the contact forces of every obstacle on the rod `s` (nodes from `first_node`, elements
@@ -728,35 +748,41 @@ pub(crate) fn add_contact_forces(
                 params,
                 dt,
                 first_node,
+                1.0,
                 slot,
                 out,
             );
         }
     }
     for plane in obstacles.planes {
+        // Two stick springs per element (one at each end node).
         let base = next_base(&plane.friction);
+        let base2 = next_base(&plane.friction);
         for j in 0..model.n_elements {
-            let slot = match base {
-                Some(b) => &mut stick[b + first_element + j],
-                None => &mut scratch,
-            };
-            let Some(hit) = plane_hit(model, s, j, plane) else {
-                *slot = [0.0; 3];
-                continue;
-            };
-            apply_hit(
-                model,
-                s,
-                j,
-                &hit,
-                [0.0; 3],
-                &plane.friction,
-                params,
-                dt,
-                first_node,
-                slot,
-                out,
-            );
+            for end in 0..2 {
+                let slot = match (base, base2) {
+                    (Some(b), Some(b2)) => &mut stick[[b, b2][end] + first_element + j],
+                    _ => &mut scratch,
+                };
+                let Some(hit) = plane_hit(model, s, j, end, plane) else {
+                    *slot = [0.0; 3];
+                    continue;
+                };
+                apply_hit(
+                    model,
+                    s,
+                    j,
+                    &hit,
+                    [0.0; 3],
+                    &plane.friction,
+                    params,
+                    dt,
+                    first_node,
+                    0.5,
+                    slot,
+                    out,
+                );
+            }
         }
     }
     for cyl in obstacles.cylinders {
@@ -780,6 +806,7 @@ pub(crate) fn add_contact_forces(
                 params,
                 dt,
                 first_node,
+                1.0,
                 slot,
                 out,
             );
@@ -793,27 +820,29 @@ fn for_each_hit(
     s: &impl RodAccess,
     obstacles: Obstacles<'_>,
     t: f64,
-    mut f: impl FnMut(usize, f64),
+    mut f: impl FnMut(usize, f64, f64),
 ) {
     for sphere in obstacles.spheres {
         let c = sphere.center_at(t);
         for j in 0..model.n_elements {
             if let Some(hit) = element_hit(model, s, j, c, sphere.radius) {
-                f(j, hit.penetration);
+                f(j, hit.penetration, 1.0);
             }
         }
     }
     for plane in obstacles.planes {
         for j in 0..model.n_elements {
-            if let Some(hit) = plane_hit(model, s, j, plane) {
-                f(j, hit.penetration);
+            for end in 0..2 {
+                if let Some(hit) = plane_hit(model, s, j, end, plane) {
+                    f(j, hit.penetration, 0.5);
+                }
             }
         }
     }
     for cyl in obstacles.cylinders {
         for j in 0..model.n_elements {
             if let Some(hit) = cylinder_hit(model, s, j, cyl, t) {
-                f(j, hit.penetration);
+                f(j, hit.penetration, 1.0);
             }
         }
     }
@@ -844,9 +873,9 @@ pub fn obstacle_energy(
     t: f64,
 ) -> f64 {
     let mut energy = 0.0;
-    for_each_hit(model, s, obstacles, t, |j, g| {
+    for_each_hit(model, s, obstacles, t, |j, g, share| {
         let k = params.beta * model.material.youngs_modulus * model.area[j] / model.rest_length[j];
-        energy += 0.5 * k * g * g;
+        energy += 0.5 * share * k * g * g;
     });
     energy
 }
@@ -874,7 +903,7 @@ pub fn obstacle_penetration(
     t: f64,
 ) -> (f64, usize) {
     let mut worst = (0.0, 0);
-    for_each_hit(model, s, obstacles, t, |j, g| {
+    for_each_hit(model, s, obstacles, t, |j, g, _| {
         if g > worst.0 {
             worst = (g, j);
         }
