@@ -34,8 +34,8 @@ echo "$py_out"
 echo "== octoarm (criterion), N = $n"
 cd "$root"
 filter=$(echo "$n" | sed 's/ \+/|/g')
-cargo bench -p octoarm-physics --bench step -- "paper_arm/($filter)\$" 2>&1 | grep -E 'paper_arm|time:' || true
-criterion_dir="${CARGO_TARGET_DIR:-$root/target}/criterion/step/paper_arm"
+cargo bench -p octoarm-physics --bench step -- "paper_arm/[a-z0-9]+/($filter)\$" 2>&1 | grep -E 'paper_arm|time:' || true
+criterion_dir="${CARGO_TARGET_DIR:-$root/target}/criterion/step"
 
 echo
 echo "machine: $(lscpu | sed -n 's/^Model name: *//p'), one core; $(date -u +%Y-%m-%dT%H:%MZ)"
@@ -43,9 +43,14 @@ python3 - "$criterion_dir" "$version" "$py_out" <<'PY'
 import json, sys
 criterion_dir, version, py_out = sys.argv[1], sys.argv[2], sys.argv[3]
 py = {int(w[1]): float(w[2]) for w in (l.split() for l in py_out.splitlines()) if w and w[0] == "pyelastica_us_per_step"}
-print(f"{'N':>5} {'octoarm [us/step]':>18} {'ns/element':>11} {'PyElastica ' + version + ' [us/step]':>28} {'ratio':>7}")
+import os
+print(f"{'N':>5} {'kernel':>9} {'octoarm [us/step]':>18} {'ns/element':>11} {'PyElastica ' + version + ' [us/step]':>28} {'ratio':>7}")
 for n, p in sorted(py.items()):
-    with open(f"{criterion_dir}/{n}/new/estimates.json") as f:
-        rs = json.load(f)["median"]["point_estimate"] / 1e3
-    print(f"{n:>5} {rs:>18.2f} {rs * 1e3 / n:>11.1f} {p:>28.2f} {p / rs:>6.1f}x")
+    for kernel in ("baseline", "avx2"):
+        path = f"{criterion_dir}/paper_arm_{kernel}/{n}/new/estimates.json"
+        if not os.path.exists(path):
+            continue
+        with open(path) as f:
+            rs = json.load(f)["median"]["point_estimate"] / 1e3
+        print(f"{n:>5} {kernel:>9} {rs:>18.2f} {rs * 1e3 / n:>11.1f} {p:>28.2f} {p / rs:>6.1f}x")
 PY

@@ -1,6 +1,10 @@
-//! Criterion benchmark: µs per step of the paper's arm (damping + tip force) for N = 25..400.
+//! Criterion benchmark: time per step of the paper's arm (damping + tip force) for N = 25..1000,
+//! with each kernel this CPU can run (`octoarm_physics::kernel`), interleaved in one process so
+//! that their ratio is measured in the same sitting. Throughput is in elements: criterion's
+//! "thrpt" is element-steps per second (its inverse is the cost per element-step).
 #![allow(missing_docs)] // criterion_group! generates an undocumented public function
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use octoarm_physics::kernel::Kernel;
 use octoarm_physics::{Damping, Load, Settings, Simulation, StraightRod};
 
 fn arm(n: usize) -> Simulation {
@@ -16,11 +20,16 @@ fn arm(n: usize) -> Simulation {
 
 fn bench_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("step");
-    for n in [25usize, 50, 100, 200, 400] {
-        let mut sim = arm(n);
-        group.bench_with_input(BenchmarkId::new("paper_arm", n), &n, |b, _| {
-            b.iter(|| sim.step().unwrap());
-        });
+    for n in [25usize, 50, 100, 200, 400, 1000] {
+        group.throughput(Throughput::Elements(n as u64));
+        for kernel in Kernel::ALL.into_iter().filter(|k| k.is_available()) {
+            let mut sim = arm(n);
+            sim.workspace.set_kernel(kernel);
+            let id = BenchmarkId::new(format!("paper_arm/{}", kernel.name()), n);
+            group.bench_with_input(id, &n, |b, _| {
+                b.iter(|| sim.step().unwrap());
+            });
+        }
     }
     group.finish();
 }

@@ -102,6 +102,7 @@ impl InternalLoads {
     /// adds the gyroscopic and unsteady-dilatation torques (eq. 4.3); `energy_consistent` adds
     /// the tension corrections of eq. 4.5.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn compute_rod(
         &mut self,
         model: &RodModel,
@@ -126,6 +127,7 @@ impl InternalLoads {
     }
 
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn compute_view(
         &mut self,
         model: &RodModel,

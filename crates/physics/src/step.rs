@@ -10,6 +10,7 @@ use crate::damping::{AnalyticalDamper, KickFactors};
 use crate::energy::{energies_with_rest, Energies};
 use crate::error::StepError;
 use crate::internal::{turning_angle, InternalLoads};
+use crate::kernel::Kernel;
 use crate::loads::ExternalLoads;
 use crate::math::{
     bjorck, cross, dot, exp_neg_skew, exp_neg_skew_series, log_relative, mat_mul, mat_vec,
@@ -56,6 +57,9 @@ pub struct Workspace {
     /// with friction); sized when obstacles with friction are present.
     #[cfg_attr(feature = "serde", serde(default))]
     pub stick: Vec<Vec3>,
+    // The machine code `step` runs (not saved: a restored simulation picks its own machine's).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    kernel: Kernel,
 }
 
 impl Workspace {
@@ -91,6 +95,7 @@ impl Workspace {
             },
             rod_contact: RodContactScratch::new(system),
             stick: vec![[0.0; 3]; stick_slots(system.obstacle_set(), ne)],
+            kernel: Kernel::selected(),
         };
         ws.reset_energy_reference(system, state);
         ws.refresh_kick(system);
@@ -103,6 +108,21 @@ impl Workspace {
             self.kick
                 .refresh_rod(r, &rod.model, &rod.damping, dt, rod.at.node, rod.at.element);
         }
+    }
+
+    /// The kernel `step` runs with this workspace (initially `Kernel::selected()`).
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+
+    /// Run `step` with `kernel` from now on; refused (returning false, nothing changed) when this
+    /// CPU cannot run it. Every kernel gives bit-identical results; this is for testing and
+    /// benchmarking the variants.
+    pub fn set_kernel(&mut self, kernel: Kernel) -> bool {
+        if kernel.is_available() {
+            self.kernel = kernel;
+        }
+        self.kernel == kernel
     }
 
     /// Nodal forces [N] (lab) the actuation produced in the last step, system node order; None
@@ -227,8 +247,37 @@ pub fn rod_energies(system: &RodSystem, state: &SystemState, r: usize) -> Energi
 
 /// Advance `state` by one step of `system.settings().dt` under `actuation` (held constant over
 /// the step). The stability guard runs every `guard_interval` steps; on failure the state is
-/// left as it was when the guard fired.
+/// left as it was when the guard fired. Runs the workspace's kernel (`crate::kernel`).
 pub fn step(
+    system: &RodSystem,
+    state: &mut SystemState,
+    actuation: &Actuation,
+    ws: &mut Workspace,
+) -> Result<(), StepError> {
+    match ws.kernel {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: a workspace holds `Kernel::Avx2` only when the CPU has AVX2 and FMA
+        // (`Kernel::selected`, `Workspace::set_kernel` check `is_available`).
+        Kernel::Avx2 => unsafe { step_avx2(system, state, actuation, ws) },
+        _ => step_body(system, state, actuation, ws),
+    }
+}
+
+/// `step_body` compiled with AVX2/FMA enabled; the kernels it calls are `inline(always)` so
+/// that they are compiled into it with the same features.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn step_avx2(
+    system: &RodSystem,
+    state: &mut SystemState,
+    actuation: &Actuation,
+    ws: &mut Workspace,
+) -> Result<(), StepError> {
+    step_body(system, state, actuation, ws)
+}
+
+#[inline(always)]
+fn step_body(
     system: &RodSystem,
     state: &mut SystemState,
     actuation: &Actuation,
@@ -378,6 +427,7 @@ pub fn step(
     Ok(())
 }
 
+#[inline(always)]
 fn drift(system: &RodSystem, state: &mut SystemState, h: f64) {
     let _ = system;
     let p = &mut state.position;
@@ -602,6 +652,7 @@ fn add_clamp_couples(
     }
 }
 
+#[inline(always)]
 fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64) {
     for (r, rod) in system.rods.iter().enumerate() {
         let m = &rod.model;

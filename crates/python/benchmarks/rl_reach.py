@@ -28,9 +28,10 @@ from typing import Any
 import numpy as np
 
 import octoarm  # noqa: F401  (registers the environments)
-from octoarm.env import EPISODE_STEPS, ArmReachVectorEnv
+from octoarm.env import V1_EPISODE_STEPS, V1_TASK, ArmReachVectorEnv
 
-V1 = {"reward": "reach", "observe_error": True, "action": "increment"}
+V1 = dict(V1_TASK)
+EPISODE_STEPS = V1_EPISODE_STEPS
 
 
 def goal_view(obs: np.ndarray, n_nodes: int) -> dict[str, np.ndarray]:
@@ -95,7 +96,9 @@ def make_model(args: argparse.Namespace) -> Any:
             seed=args.seed,
             verbose=args.verbose,
         )
-    env = VecMonitor(RustVecEnv(num_envs=args.num_envs, **V1))
+    env = VecMonitor(
+        RustVecEnv(num_envs=args.num_envs, max_episode_steps=EPISODE_STEPS, **V1)
+    )
     env.seed(args.seed)
     if args.algo == "sac":
         return SAC(

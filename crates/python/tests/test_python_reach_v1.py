@@ -9,7 +9,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import octoarm  # noqa: F401
-from octoarm.env import ArmReachEnv, ArmReachGoalEnv, ArmReachVectorEnv
+from octoarm.env import V1_TASK, ArmReachEnv, ArmReachGoalEnv, ArmReachVectorEnv
 
 L0 = 0.2
 
@@ -17,7 +17,8 @@ L0 = 0.2
 def test_v1_registered_and_check_env_passes():
     for name in ("octoarm/ArmReach-v1", "octoarm/ArmReachGoal-v1"):
         env = gym.make(name)
-        assert env.spec.max_episode_steps == 200
+        assert env.spec.max_episode_steps == 40  # 40 x 50 ms = 2 s
+        assert env.unwrapped.control_period == pytest.approx(0.05)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             check_env(env.unwrapped, skip_render_check=True)
@@ -134,8 +135,7 @@ def _rollout_v1(vec, steps=30):
 
 def test_vector_v1_equals_sync_vectorisation_bit_for_bit():
     n = 4
-    rust = ArmReachVectorEnv(num_envs=n, max_episode_steps=12, num_threads=2,
-                             reward="reach", observe_error=True, action="increment")
+    rust = ArmReachVectorEnv(num_envs=n, max_episode_steps=12, num_threads=2, **V1_TASK)
     sync = gym.make_vec("octoarm/ArmReach-v1", n, vectorization_mode="sync",
                         max_episode_steps=12)
     for (o1, r1, t1, s1, m1, d1), (o2, r2, t2, s2, m2, d2) in zip(
@@ -156,8 +156,7 @@ def test_sb3_rust_vec_env_v1_equals_dummy_vec_env():
     from octoarm.sb3 import RustVecEnv
 
     n = 3
-    rust = RustVecEnv(num_envs=n, max_episode_steps=10, reward="reach", observe_error=True,
-                      action="increment")
+    rust = RustVecEnv(num_envs=n, max_episode_steps=10, **V1_TASK)
     rust.seed(5)
     dummy = make_vec_env("octoarm/ArmReach-v1", n_envs=n, seed=5,
                          env_kwargs={"max_episode_steps": 10})
@@ -216,8 +215,8 @@ def test_her_replay_buffer_trains_on_goal_env():
 
     env = gym.make("octoarm/ArmReachGoal-v1")
     model = SAC("MultiInputPolicy", env, replay_buffer_class=HerReplayBuffer,
-                learning_starts=210, batch_size=32, policy_kwargs={"net_arch": [16]}, seed=0)
-    model.learn(260)  # past one 200-step episode: HER samples only finished episodes
+                learning_starts=50, batch_size=32, policy_kwargs={"net_arch": [16]}, seed=0)
+    model.learn(100)  # past one 40-step episode: HER samples only finished episodes
     assert model.replay_buffer.size() > 0
     # relabelled rewards are the env's compute_reward of the stored goals
     sample = model.replay_buffer.sample(16)

@@ -63,6 +63,8 @@ __all__ = [
 def _register() -> None:
     import gymnasium
 
+    from .env import V1_EPISODE_STEPS, V1_TASK
+
     if "octoarm/ArmReach-v0" not in gymnasium.registry:
         gymnasium.register(
             id="octoarm/ArmReach-v0",
@@ -77,14 +79,15 @@ def _register() -> None:
             id="octoarm/ArmReach-v1",
             entry_point="octoarm.env:ArmReachEnv",
             vector_entry_point="octoarm.env:ArmReachVectorEnv",
-            max_episode_steps=200,
-            kwargs={"reward": "reach", "observe_error": True, "action": "increment"},
+            max_episode_steps=V1_EPISODE_STEPS,
+            kwargs=dict(V1_TASK),
         )
     if "octoarm/ArmReachGoal-v1" not in gymnasium.registry:
         gymnasium.register(
             id="octoarm/ArmReachGoal-v1",
             entry_point="octoarm.env:ArmReachGoalEnv",
-            max_episode_steps=200,
+            max_episode_steps=V1_EPISODE_STEPS,
+            kwargs={"control_period": V1_TASK["control_period"]},
         )
 
 

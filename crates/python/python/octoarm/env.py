@@ -48,6 +48,9 @@ by default), clamped at the origin along +x, bending in the x-y plane.
 * ``reward``: ``"distance"`` (the v0 reward above) or ``"reach"``, a reward whose last
   millimetres carry signal: ``r = -d / L0 + exp(-d / 1 cm) - effort_weight * mean(a**2)``
   (d the tip distance [m]; the exponential success bonus is 1 at the target, 0.37 at 1 cm).
+* ``control_period`` (an ``ArmBatch`` argument, 10 ms in v0): v1 acts every 50 ms, 40 steps per
+  2 s episode: fewer, larger decisions (the arm's muscle lag is 50 ms anyway), which shortens
+  the credit-assignment horizon five-fold.
 * ``observe_error``: append ``(target - tip) / L0`` (2 values, clipped to [-3, 3]) to the
   observation: the quantity a reaching policy acts on, given directly.
 * ``action``: ``"absolute"`` (the action is the command, as above) or ``"increment"``: the
@@ -181,6 +184,17 @@ def _check_options(options: dict[str, Any] | None, allowed: Sequence[str]) -> di
         )
     return options
 
+
+V1_TASK: dict[str, Any] = {
+    "reward": "reach",
+    "observe_error": True,
+    "action": "increment",
+    "control_period": 0.05,
+}
+"""Keyword arguments of ``octoarm/ArmReach-v1``: the reach reward, the error observed,
+incremental commands, one environment step = 50 ms."""
+V1_EPISODE_STEPS = 40
+"""Episode length of the v1 environments: 40 steps of 50 ms = 2 s, as v0's 200 of 10 ms."""
 
 REWARDS = ("distance", "reach")
 ACTIONS = ("absolute", "increment")
