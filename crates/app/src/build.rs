@@ -144,6 +144,7 @@ fn end_condition(e: &EndConfig) -> EndCondition {
                 displacement: t.displacement.clone().unwrap_or(vec![[0.0; 3]; n]),
                 rotation: t.rotation.clone().unwrap_or(vec![[0.0; 3]; n]),
                 times,
+                slides_along: None,
             })
         }
     }
@@ -183,6 +184,7 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
         dt: cfg.time.dt,
         energy_consistent: cfg.numerics.energy_consistent,
         guard_interval: cfg.numerics.guard_interval,
+        clamp_order: cfg.numerics.clamp_order.unwrap_or(1),
         ..Settings::default()
     };
     let mut builder = SystemBuilder::new(settings);
@@ -297,10 +299,31 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
         .set_contact(ContactParams {
             beta: cfg.contact.beta,
             zeta: cfg.contact.zeta,
+            rods: cfg.contact.rods,
+            self_contact: cfg.contact.self_contact,
+            rod_friction: friction(cfg.contact.rod_friction, cfg.contact.rod_kinetic_friction),
+            friction_eta: cfg
+                .contact
+                .friction_eta
+                .unwrap_or(ContactParams::default().friction_eta),
+            stick_stiffness: cfg
+                .contact
+                .stick_stiffness
+                .unwrap_or(ContactParams::default().stick_stiffness),
+            slip_velocity: cfg
+                .contact
+                .slip_velocity
+                .unwrap_or(ContactParams::default().slip_velocity),
         })
         .map_err(|e| located("contact".into(), e))?;
     // The contact stiffness β E Â / l̂ (and its damping) must be a number.
-    if !cfg.obstacles.is_empty() || cfg.grasp.is_some() {
+    if !cfg.obstacles.is_empty()
+        || !cfg.planes.is_empty()
+        || !cfg.cylinders.is_empty()
+        || cfg.contact.rods
+        || cfg.contact.self_contact
+        || cfg.grasp.is_some()
+    {
         let k = system
             .rods()
             .iter()
@@ -385,11 +408,34 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
                 center: o.center,
                 radius: 0.5 * o.diameter,
                 velocity: o.velocity,
+                friction: friction(o.friction, o.kinetic_friction),
             },
         };
         system
             .add_obstacle(sphere)
             .map_err(|e| located(format!("obstacle[{i}]"), e))?;
+    }
+    for (i, p) in cfg.planes.iter().enumerate() {
+        system
+            .add_plane(octoarm_physics::Plane::new(
+                p.point,
+                p.normal,
+                friction(p.friction, p.kinetic_friction),
+            ))
+            .map_err(|e| located(format!("plane[{i}]"), e))?;
+    }
+    for (i, c) in cfg.cylinders.iter().enumerate() {
+        let mut cyl = octoarm_physics::Cylinder::fixed(
+            c.center,
+            c.axis,
+            0.5 * c.diameter,
+            c.length,
+            friction(c.friction, c.kinetic_friction),
+        );
+        cyl.velocity = c.velocity;
+        system
+            .add_cylinder(cyl)
+            .map_err(|e| located(format!("cylinder[{i}]"), e))?;
     }
     if let Some(g) = &cfg.grasp {
         // The grasped object is also a physical obstacle.
@@ -964,4 +1010,21 @@ pub fn build_controllers(
         scn.error_at(key, format!("{key}: {e}"))
     })?;
     Ok(vec![Box::new(c)])
+}
+
+/// Physics friction from a scenario's static and kinetic coefficients (checked by validate).
+fn friction(
+    stat: Option<crate::scenario::config::FrictionValue>,
+    kinetic: Option<crate::scenario::config::FrictionValue>,
+) -> octoarm_physics::Friction {
+    match stat {
+        None => octoarm_physics::Friction::NONE,
+        Some(s) => {
+            let s = s.three();
+            octoarm_physics::Friction {
+                static_mu: s,
+                kinetic_mu: kinetic.map_or(s, |k| k.three()),
+            }
+        }
+    }
 }

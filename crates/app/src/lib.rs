@@ -223,6 +223,31 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
             fmt_num(o.diameter)
         );
     }
+    for p in &cfg.planes {
+        let _ = writeln!(
+            s,
+            "  plane: point {} m, normal {}",
+            fmt_vec(p.point),
+            fmt_vec(p.normal)
+        );
+    }
+    for c in &cfg.cylinders {
+        let _ = writeln!(
+            s,
+            "  cylinder: center {} m, axis {}, diameter {} m, length {} m",
+            fmt_vec(c.center),
+            fmt_vec(c.axis),
+            fmt_num(c.diameter),
+            fmt_num(c.length)
+        );
+    }
+    if cfg.contact.rods || cfg.contact.self_contact {
+        let _ = writeln!(
+            s,
+            "  contact: between rods {}, self contact {}",
+            cfg.contact.rods, cfg.contact.self_contact
+        );
+    }
     for j in &cfg.joints {
         let _ = writeln!(s, "  joint: {:?} {} -- {}", j.kind, j.first, j.second);
     }

@@ -70,6 +70,19 @@ impl EndCondition {
         matches!(self, EndCondition::Clamped | EndCondition::Driven(_))
     }
 
+    /// The unit direction a driven end slides along, if it does.
+    pub fn slide_axis(&self) -> Option<Vec3> {
+        match self {
+            EndCondition::Driven(m) => m.slide_axis(),
+            _ => None,
+        }
+    }
+
+    /// Whether the end node is kicked by the forces on it (free, or sliding along a direction).
+    pub fn node_moves(&self) -> bool {
+        !self.holds_position() || self.slide_axis().is_some()
+    }
+
     /// "free", "pinned", "clamped" or "driven".
     pub fn name(&self) -> &'static str {
         match self {
@@ -95,6 +108,11 @@ pub struct Motion {
     pub displacement: Vec<Vec3>,
     /// Rotation vector of the end frame at each time [rad], lab frame; zero at time 0.
     pub rotation: Vec<Vec3>,
+    /// A direction along which the end node is not held but slides freely under the loads on
+    /// it (cosseratbench's `slides_along`); the displacement's component along it is ignored.
+    /// Normalised by `validate`.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub slides_along: Option<Vec3>,
 }
 
 impl Motion {
@@ -107,7 +125,16 @@ impl Motion {
                 [0.0; 3],
                 [rate[0] * until, rate[1] * until, rate[2] * until],
             ],
+            slides_along: None,
         }
+    }
+
+    /// The unit slide direction, if the end slides.
+    pub fn slide_axis(&self) -> Option<Vec3> {
+        self.slides_along.map(|a| {
+            let l = norm(a);
+            [a[0] / l, a[1] / l, a[2] / l]
+        })
     }
 
     /// Check the samples; errors name the field.
@@ -150,6 +177,16 @@ impl Motion {
         }
         for v in self.displacement.iter().chain(&self.rotation) {
             finite_vec("motion", *v)?;
+        }
+        if let Some(a) = self.slides_along {
+            finite_vec("motion.slides_along", a)?;
+            if norm(a) == 0.0 {
+                return Err(ModelError::BadVector {
+                    field: "motion.slides_along",
+                    value: a,
+                    reason: "the slide direction must be a non-zero vector",
+                });
+            }
         }
         if self.displacement[0] != [0.0; 3] || self.rotation[0] != [0.0; 3] {
             return Err(ModelError::BadVector {

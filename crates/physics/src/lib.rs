@@ -2,7 +2,7 @@
 //! `docs/cosserat-discretization.md`) in systems of many rods. It owns the rod models, the
 //! system (rods, end conditions, joints, loads with schedules, obstacles, rest strains in force),
 //! the structure-of-arrays state, the actuation input, internal and external loads, damping,
-//! contact with rigid spheres, the one position-Verlet stepper and the stability guard. It knows
+//! contact with rigid spheres, planes and cylinders (with friction), rod–rod and self contact, the one position-Verlet stepper and the stability guard. It knows
 //! nothing of control, files or plotting.
 //!
 //! ```
@@ -32,6 +32,7 @@ pub mod loads;
 pub mod math;
 pub mod model;
 pub mod muscles;
+pub mod rod_contact;
 pub mod schedule;
 pub mod simulation;
 pub mod state;
@@ -40,7 +41,10 @@ pub mod store;
 pub mod system;
 
 pub use actuation::Actuation;
-pub use contact::{contact_energy, max_penetration, ContactParams, Sphere};
+pub use contact::{
+    closest_points, contact_energy, max_penetration, obstacle_energy, obstacle_penetration,
+    ContactParams, Cylinder, Friction, Obstacles, Plane, Sphere,
+};
 pub use damping::{AnalyticalDamper, Damping};
 pub use ends::{EndCondition, Motion, Side};
 pub use energy::{energies, energies_with_rest, Energies};
@@ -52,6 +56,7 @@ pub use loads::{AppliedLoad, ExternalLoads, Load};
 pub use math::{Mat3, Vec3};
 pub use model::{Material, RodModel, StraightRod};
 pub use muscles::{FibreKind, ForceLength, MuscleGroup, MuscleModel, MuscleSpec, N_GROUPS};
+pub use rod_contact::{min_rod_gap, neighbour_elements};
 pub use schedule::Schedule;
 pub use simulation::Simulation;
 pub use state::{RodAccess, RodState, RodView, SystemState};

@@ -123,6 +123,16 @@ impl Simulation {
         self.system.add_load(0, load, schedule)
     }
 
+    /// Add a rigid plane.
+    pub fn add_plane(&mut self, plane: crate::contact::Plane) -> Result<(), ModelError> {
+        self.system.add_plane(plane)
+    }
+
+    /// Add a rigid finite cylinder.
+    pub fn add_cylinder(&mut self, cylinder: crate::contact::Cylinder) -> Result<(), ModelError> {
+        self.system.add_cylinder(cylinder)
+    }
+
     /// Add a rigid sphere obstacle.
     pub fn add_obstacle(&mut self, sphere: Sphere) -> Result<(), ModelError> {
         self.system.add_obstacle(sphere)

@@ -5,7 +5,7 @@
 //! scratch array so that a step never allocates.
 
 use crate::actuation::{Actuation, ActuationScratch};
-use crate::contact::add_contact_forces;
+use crate::contact::{add_contact_forces, stick_slots};
 use crate::damping::{AnalyticalDamper, KickFactors};
 use crate::energy::{energies_with_rest, Energies};
 use crate::error::StepError;
@@ -13,9 +13,10 @@ use crate::internal::{turning_angle, InternalLoads};
 use crate::kernel::Kernel;
 use crate::loads::ExternalLoads;
 use crate::math::{
-    bjorck, dot, exp_neg_skew, exp_neg_skew_series, mat_mul, mat_vec, orthonormality_defect, Vec3,
-    EXP_SERIES_MAX_SQ,
+    bjorck, cross, dot, exp_neg_skew, exp_neg_skew_series, log_relative, mat_mul, mat_vec,
+    orthonormality_defect, Vec3, EXP_SERIES_MAX_SQ,
 };
+use crate::rod_contact::{add_rod_contact_forces, RodContactScratch};
 use crate::state::{RodAccess, SystemState};
 use crate::system::RodSystem;
 
@@ -52,6 +53,12 @@ pub struct Workspace {
     rest_sigma: Vec<Vec3>,
     rest_kappa: Vec<Vec3>,
     guard: Guard,
+    /// Broad phase and Verlet list of rod–rod and self contact.
+    pub rod_contact: RodContactScratch,
+    /// Stick springs of obstacle friction (tangential displacement per element and obstacle
+    /// with friction); sized when obstacles with friction are present.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub stick: Vec<Vec3>,
     // The machine code `step` runs (not saved: a restored simulation picks its own machine's).
     #[cfg_attr(feature = "serde", serde(skip))]
     kernel: Kernel,
@@ -89,6 +96,8 @@ impl Workspace {
                 rest_checksum: 0.0,
                 floor,
             },
+            rod_contact: RodContactScratch::new(system),
+            stick: vec![[0.0; 3]; stick_slots(system.obstacle_set(), ne)],
             kernel: Kernel::selected(),
         };
         ws.reset_energy_reference(system, state);
@@ -316,6 +325,9 @@ fn step_body(
             muscles,
         );
     }
+    if settings.clamp_order == 2 {
+        add_clamp_couples(system, state, &mut ws.internal, rk);
+    }
 
     // 4. External loads: scheduled loads, contact, joints, then the actuation.
     let t = state.time;
@@ -333,19 +345,33 @@ fn step_body(
             &mut ws.external,
         );
     }
-    if !system.obstacles.is_empty() {
+    let obstacles = system.obstacle_set();
+    if !obstacles.is_empty() {
+        // Obstacles may be added between steps: (re)size the stick springs then, not per step.
+        let slots = stick_slots(obstacles, system.n_elements);
+        if ws.stick.len() != slots {
+            ws.stick.clear();
+            ws.stick.resize(slots, [0.0; 3]);
+        }
         for rod in &system.rods {
             let v = state.view(rod.at.node, rod.at.element, rod.n_elements());
             add_contact_forces(
                 &rod.model,
                 &v,
-                &system.obstacles,
+                obstacles,
                 &system.contact,
                 t,
+                dt,
                 rod.at.node,
+                rod.at.element,
+                system.n_elements,
+                &mut ws.stick,
                 &mut ws.external,
             );
         }
+    }
+    if system.contact.rod_contact() {
+        add_rod_contact_forces(system, state, &mut ws.rod_contact, dt, &mut ws.external);
     }
     for j in &system.joints {
         let (node, elem) = joint_indices(system, j);
@@ -393,7 +419,7 @@ fn step_body(
 
     // 5–6. Kick with exact damping, rate constraints, then the multiplicative damper.
     kick(system, state, ws, dt);
-    hold_rates(system, state, &ws.internal, dt);
+    hold_rates(system, state, &ws.internal, &ws.external, dt);
     apply_analytical_dampers(system, state, ws, dt);
 
     // 7. Second kinematic half-step and value constraints.
@@ -478,9 +504,19 @@ fn hold_values(system: &RodSystem, state: &mut SystemState) {
             if !end.condition.holds_position() {
                 continue;
             }
-            let (x, q) = end.pose(t);
-            state.position.set(rod.at.node + side.node(n), x);
-            if end.condition.holds_frame() {
+            let (mut x, q) = end.pose(t);
+            let node = rod.at.node + side.node(n);
+            if let Some(a) = end.condition.slide_axis() {
+                // Free along the slide direction: keep the node's own component there.
+                let along = dot(a, crate::math::sub(state.position.get(node), x));
+                x = [
+                    x[0] + along * a[0],
+                    x[1] + along * a[1],
+                    x[2] + along * a[2],
+                ];
+            }
+            state.position.set(node, x);
+            if frame_held(end, &system.settings) {
                 state.director.set(rod.at.element + side.element(n), &q);
             }
         }
@@ -491,7 +527,13 @@ fn hold_values(system: &RodSystem, state: &mut SystemState) {
 /// A driven end does work on the rod: −F_int · v − T_int · ω at its node and element (the
 /// internal loads of this step; the clamp absorbs any external load on held DOFs), added to the
 /// rod's external work so that the energy balance and the guard's bound include it.
-fn hold_rates(system: &RodSystem, state: &mut SystemState, internal: &InternalLoads, dt: f64) {
+fn hold_rates(
+    system: &RodSystem,
+    state: &mut SystemState,
+    internal: &InternalLoads,
+    external: &ExternalLoads,
+    dt: f64,
+) {
     // Rates belong to the mid-step (the kick integrates from t to t + dt).
     let t = state.time;
     for (r, rod) in system.rods.iter().enumerate() {
@@ -506,27 +548,119 @@ fn hold_rates(system: &RodSystem, state: &mut SystemState, internal: &InternalLo
             let e = rod.at.element + side.element(n);
             let node = rod.at.node + side.node(n);
             let q = state.director.get(e);
-            let (v, w) = end.rates(t, &q);
-            state.velocity.set(node, v);
-            if end.condition.holds_frame() {
-                state.omega.set(e, w);
-            }
-            if matches!(end.condition, crate::ends::EndCondition::Driven(_)) {
-                let power = -dot(internal.force.get(node), v) - dot(internal.torque.get(e), w);
+            let (mut v, w) = end.rates(t, &q);
+            let held_frame = frame_held(end, &system.settings);
+            let w_held = if held_frame { w } else { [0.0; 3] };
+            if let Some(a) = end.condition.slide_axis() {
+                // The node was kicked; keep its velocity along the slide direction. The
+                // constraint force is the load across it.
+                let along = dot(a, crate::math::sub(state.velocity.get(node), v));
+                v = [
+                    v[0] + along * a[0],
+                    v[1] + along * a[1],
+                    v[2] + along * a[2],
+                ];
+                let f = crate::math::add(internal.force.get(node), external.force.get(node));
+                let fa = dot(f, a);
+                let f_perp = [f[0] - fa * a[0], f[1] - fa * a[1], f[2] - fa * a[2]];
+                let power = -dot(f_perp, v) - dot(internal.torque.get(e), w_held);
                 state.work[r] += dt * power;
+                state.velocity.set(node, v);
+            } else {
+                state.velocity.set(node, v);
+                if matches!(end.condition, crate::ends::EndCondition::Driven(_)) {
+                    let power =
+                        -dot(internal.force.get(node), v) - dot(internal.torque.get(e), w_held);
+                    state.work[r] += dt * power;
+                }
+            }
+            if held_frame {
+                state.omega.set(e, w);
             }
         }
     }
 }
 
+/// Whether the stepper holds an end's frame rigid (clamped and driven ends with the first-order
+/// clamp; the second-order clamp joins the frame to the clamp by a spring instead).
+#[inline]
+fn frame_held(end: &crate::ends::End, settings: &crate::system::Settings) -> bool {
+    end.condition.holds_frame() && settings.clamp_order < 2
+}
+
 /// The range of free nodes and elements of a rod (held end DOFs are not kicked).
-fn free_ranges(rod: &crate::system::Rod) -> (usize, usize, usize, usize) {
+fn free_ranges(
+    rod: &crate::system::Rod,
+    settings: &crate::system::Settings,
+) -> (usize, usize, usize, usize) {
     let n = rod.n_elements();
-    let first_node = usize::from(rod.base.condition.holds_position());
-    let last_node = n - usize::from(rod.tip.condition.holds_position());
-    let first_elem = usize::from(rod.base.condition.holds_frame());
-    let end_elem = n - usize::from(rod.tip.condition.holds_frame());
+    let first_node = usize::from(!rod.base.condition.node_moves());
+    let last_node = n - usize::from(!rod.tip.condition.node_moves());
+    let first_elem = usize::from(frame_held(&rod.base, settings));
+    let end_elem = n - usize::from(frame_held(&rod.tip, settings));
     (first_node, last_node, first_elem, end_elem)
+}
+
+/// The second-order clamp (docs/physics.md): for each end whose frame the condition holds, a
+/// bending/twisting spring between the clamp frame Q_c (at the end node) and the end element,
+/// a Voronoi point at half an element's distance: κ = −Log(Q_right Q_leftᵀ) / (l̂/2),
+/// τ = B (κ − κ°), added to the element's couple as the interior Voronoi points are
+/// (−τ/ε³ on the base element, +τ/ε³ on the tip element, plus (κ × τ) D̂/(2ε³)).
+fn add_clamp_couples(
+    system: &RodSystem,
+    state: &SystemState,
+    internal: &mut InternalLoads,
+    rk: &[Vec3],
+) {
+    let t = state.time;
+    for rod in &system.rods {
+        let m = &rod.model;
+        let n = m.n_elements;
+        let kap0 = &rk[rod.interior()];
+        for (end, side) in [
+            (&rod.base, crate::ends::Side::Base),
+            (&rod.tip, crate::ends::Side::Tip),
+        ] {
+            if !end.condition.holds_frame() {
+                continue;
+            }
+            let (_, qc) = end.pose(t);
+            let j = side.element(n);
+            let e = rod.at.element + j;
+            let q = state.director.get(e);
+            let (k_rest, bend) = match side {
+                crate::ends::Side::Base => (kap0[0], m.bend_stiffness[0]),
+                crate::ends::Side::Tip => (kap0[n - 2], m.bend_stiffness[n - 2]),
+            };
+            let d = 0.5 * m.rest_length[j];
+            let theta = match side {
+                crate::ends::Side::Base => log_relative(&q, &qc).0,
+                crate::ends::Side::Tip => log_relative(&qc, &q).0,
+            };
+            let kap = [-theta[0] / d, -theta[1] / d, -theta[2] / d];
+            let tau = [
+                bend[0] * (kap[0] - k_rest[0]),
+                bend[1] * (kap[1] - k_rest[1]),
+                bend[2] * (kap[2] - k_rest[2]),
+            ];
+            let eps = internal.dilatation[e];
+            let inv_e3 = 1.0 / (eps * eps * eps);
+            let kt = cross(kap, tau);
+            let sign = match side {
+                crate::ends::Side::Base => -1.0,
+                crate::ends::Side::Tip => 1.0,
+            };
+            let hf = 0.5 * d * inv_e3;
+            internal.torque.add(
+                e,
+                [
+                    sign * tau[0] * inv_e3 + kt[0] * hf,
+                    sign * tau[1] * inv_e3 + kt[1] * hf,
+                    sign * tau[2] * inv_e3 + kt[2] * hf,
+                ],
+            );
+        }
+    }
 }
 
 #[inline(always)]
@@ -535,7 +669,7 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
         let m = &rod.model;
         let n = m.n_elements;
         let (nodes, elems) = (rod.nodes(), rod.elements());
-        let (first_node, last_node, first_elem, end_elem) = free_ranges(rod);
+        let (first_node, last_node, first_elem, end_elem) = free_ranges(rod, &system.settings);
         let k = &ws.kick;
         // Every array cut to this rod's range first: the loops then index without bounds checks.
         let (fix, fiy, fiz) = (
@@ -647,7 +781,7 @@ fn apply_analytical_dampers(system: &RodSystem, state: &mut SystemState, ws: &Wo
         let m = &rod.model;
         let n = m.n_elements;
         let (n0, e0) = (rod.at.node, rod.at.element);
-        let (first_node, last_node, first_elem, end_elem) = free_ranges(rod);
+        let (first_node, last_node, first_elem, end_elem) = free_ranges(rod, &system.settings);
         let dil = &ws.internal.dilatation[e0..e0 + n];
         let mut removed = 0.0;
         if let AnalyticalDamper::Rates {

@@ -4,7 +4,7 @@
 //! initial states into a `RodSystem` and its `SystemState`; the stepper (`step.rs`) reads the
 //! system and never changes it.
 
-use crate::contact::{ContactParams, Sphere};
+use crate::contact::{contact_frequency, ContactParams, Cylinder, Obstacles, Plane, Sphere};
 use crate::damping::Damping;
 use crate::ends::{End, EndCondition, Side};
 use crate::error::{finite_vec, positive, ModelError};
@@ -29,6 +29,16 @@ pub struct Settings {
     pub guard_interval: u64,
     /// Steps between orthonormality checks of the frames (default 1000).
     pub orthonormality_interval: u64,
+    /// Order of the clamped (and driven) end formulation: 1 (default) holds the end element's
+    /// frame rigid, as PyElastica (first-order accurate in the element length); 2 holds only
+    /// the end node and joins the end element to the clamp frame by a half-Voronoi bending
+    /// spring (a ghost element at the clamp; second order). See docs/physics.md.
+    #[cfg_attr(feature = "serde", serde(default = "default_clamp_order"))]
+    pub clamp_order: u8,
+}
+
+fn default_clamp_order() -> u8 {
+    1
 }
 
 impl Default for Settings {
@@ -38,6 +48,7 @@ impl Default for Settings {
             energy_consistent: false,
             guard_interval: 100,
             orthonormality_interval: 1000,
+            clamp_order: default_clamp_order(),
         }
     }
 }
@@ -59,6 +70,13 @@ impl Settings {
                 field: "guard_interval",
                 value: 0,
                 range: "[1, inf)",
+            });
+        }
+        if !(1..=2).contains(&self.clamp_order) {
+            return Err(ModelError::CountOutOfRange {
+                field: "clamp_order",
+                value: usize::from(self.clamp_order),
+                range: "{1, 2}",
             });
         }
         if self.orthonormality_interval == 0 {
@@ -152,6 +170,10 @@ pub struct RodSystem {
     pub(crate) joints: Vec<Joint>,
     pub(crate) loads: Vec<AppliedLoad>,
     pub(crate) obstacles: Vec<Sphere>,
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub(crate) planes: Vec<Plane>,
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub(crate) cylinders: Vec<Cylinder>,
     pub(crate) contact: ContactParams,
     /// Rest shear/stretch strains in force σ° (material), per element of the system. Controllers
     /// and users may change them between steps (entries must stay finite).
@@ -205,6 +227,25 @@ impl RodSystem {
     /// The rigid obstacles (every rod touches every obstacle).
     pub fn obstacles(&self) -> &[Sphere] {
         &self.obstacles
+    }
+
+    /// The rigid planes.
+    pub fn planes(&self) -> &[Plane] {
+        &self.planes
+    }
+
+    /// The rigid cylinders.
+    pub fn cylinders(&self) -> &[Cylinder] {
+        &self.cylinders
+    }
+
+    /// Every obstacle, borrowed.
+    pub fn obstacle_set(&self) -> Obstacles<'_> {
+        Obstacles {
+            spheres: &self.obstacles,
+            planes: &self.planes,
+            cylinders: &self.cylinders,
+        }
     }
 
     /// Contact penalty parameters.
@@ -266,9 +307,25 @@ impl RodSystem {
         Ok(())
     }
 
-    /// Remove every obstacle.
+    /// Add a rigid plane (its normal is normalised).
+    pub fn add_plane(&mut self, mut plane: Plane) -> Result<(), ModelError> {
+        plane.validate()?;
+        self.planes.push(plane);
+        Ok(())
+    }
+
+    /// Add a rigid finite cylinder (its axis is normalised).
+    pub fn add_cylinder(&mut self, mut cylinder: Cylinder) -> Result<(), ModelError> {
+        cylinder.validate()?;
+        self.cylinders.push(cylinder);
+        Ok(())
+    }
+
+    /// Remove every obstacle (spheres, planes, cylinders).
     pub fn clear_obstacles(&mut self) {
         self.obstacles.clear();
+        self.planes.clear();
+        self.cylinders.clear();
     }
 
     /// Set the contact penalty parameters.
@@ -448,7 +505,23 @@ impl RodSystem {
             let w2 = (p.stiffness * inv_m).max(p.rotational_stiffness * inv_j);
             w = w.max(w2.sqrt());
         }
-        w
+        w.max(self.contact_max_frequency())
+    }
+
+    /// Largest angular frequency the contact springs can add [rad/s] (0 without contact):
+    /// β E Â_j / l̂_j on the lighter node of element j, twice that between two rods' elements.
+    pub fn contact_max_frequency(&self) -> f64 {
+        let factor = if self.contact.rod_contact() {
+            2.0
+        } else if !self.obstacle_set().is_empty() {
+            1.0
+        } else {
+            return 0.0;
+        };
+        self.rods
+            .iter()
+            .map(|r| contact_frequency(&r.model, &self.contact, factor))
+            .fold(0.0, f64::max)
     }
 
     /// Largest stable time step of position Verlet for this system, 2/ω̂_max [s] (spec §11).
@@ -686,6 +759,8 @@ impl SystemBuilder {
             joints,
             loads: Vec::new(),
             obstacles: Vec::new(),
+            planes: Vec::new(),
+            cylinders: Vec::new(),
             contact: ContactParams::default(),
             rest_sigma,
             rest_kappa,

@@ -268,7 +268,11 @@ fn loads_damping_and_obstacles_are_checked() {
             &[&format!("obstacle.radius = {}", shown(v)), POSITIVE],
         );
         rejects(
-            sim.set_contact(ContactParams { beta: v, zeta: 0.5 }),
+            sim.set_contact(ContactParams {
+                beta: v,
+                zeta: 0.5,
+                ..ContactParams::default()
+            }),
             &[&format!("contact.beta = {}", shown(v)), POSITIVE],
         );
     }

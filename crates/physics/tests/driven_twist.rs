@@ -154,6 +154,7 @@ fn a_driven_end_does_work_that_is_counted() {
         times: vec![0.0, 0.01],
         displacement: vec![[0.0; 3], [0.0, 1e-3, 0.0]],
         rotation: vec![[0.0; 3]; 2],
+        slides_along: None,
     };
     let mut sim = Simulation::with_ends(
         model,

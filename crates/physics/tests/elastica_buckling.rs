@@ -238,6 +238,7 @@ fn relax(n: usize) -> Relaxed {
         times: vec![0.0, RAMP],
         displacement: vec![[0.0; 3], [-delta, 0.0, 0.0]],
         rotation: vec![[0.0; 3]; 2],
+        slides_along: None,
     };
     let mut builder = SystemBuilder::new(Settings::default());
     builder.rod(RodSpec {

@@ -335,6 +335,7 @@ fn jointed_rod_system_step_and_guard_do_not_allocate() {
             center: [x10, rr + radius - 2e-5, 0.0],
             radius,
             velocity: [1e-3, 0.0, 0.0],
+            friction: octoarm_physics::Friction::NONE,
         })
         .unwrap();
     let mut actuation =
@@ -411,4 +412,91 @@ fn muscular_arm_step_does_not_allocate() {
         sim.check().unwrap();
     });
     assert_eq!(count, 0, "{count} heap allocations in {STEPS} steps");
+}
+
+// Every contact model at once — a plane and a cylinder with anisotropic / isotropic friction, a
+// moving sphere with friction, rod–rod and self contact with friction on a coiling rod lying on
+// the plane — after the Verlet list has been built once: no step allocates, guard included.
+#[test]
+fn contact_with_friction_rod_and_self_contact_does_not_allocate() {
+    use octoarm_physics::{ContactParams, Cylinder, Friction, Plane};
+    let mut rod = StraightRod::uniform(
+        60,
+        0.3,
+        0.005,
+        Material {
+            density: 1000.0,
+            youngs_modulus: 1e6,
+            shear_modulus: 1e6 / 3.0,
+            shear_coefficient: Material::DEFAULT_SHEAR_COEFFICIENT,
+        },
+    );
+    rod.rest_curvature = [0.0, 31.4, 0.0];
+    rod.base_position = [0.0, 0.0, 0.0025 - 1e-6];
+    rod.normal = [0.0, 0.0, 1.0];
+    let (model, state) = rod.build().unwrap();
+    let mut sim = Simulation::with_ends(
+        model,
+        state,
+        EndCondition::Free,
+        EndCondition::Free,
+        Settings::with_dt(2e-5),
+    )
+    .unwrap();
+    sim.add_load(Load::Gravity {
+        acceleration: [0.0, 0.0, -9.81],
+    })
+    .unwrap();
+    sim.add_plane(Plane::new(
+        [0.0; 3],
+        [0.0, 0.0, 1.0],
+        Friction {
+            static_mu: [0.2, 0.5, 0.6],
+            kinetic_mu: [0.1, 0.4, 0.5],
+        },
+    ))
+    .unwrap();
+    sim.add_cylinder(Cylinder::fixed(
+        [0.15, 0.0, -0.049],
+        [0.0, 1.0, 0.0],
+        0.05,
+        0.1,
+        Friction::coulomb(0.3),
+    ))
+    .unwrap();
+    sim.add_obstacle(Sphere {
+        center: [0.05, 0.0, 0.0125 - 1e-5],
+        radius: 0.01,
+        velocity: [1e-2, 0.0, 0.0],
+        friction: Friction::coulomb(0.5),
+    })
+    .unwrap();
+    sim.set_contact(ContactParams {
+        rods: true,
+        self_contact: true,
+        rod_friction: Friction::coulomb(0.3),
+        ..ContactParams::default()
+    })
+    .unwrap();
+    sim.workspace = Workspace::new(&sim.system, &sim.state);
+    sim.run(50).unwrap();
+    let rebuilds = sim.workspace.rod_contact.rebuilds();
+    let n = allocations_during(|| {
+        for _ in 0..STEPS {
+            sim.step().unwrap();
+        }
+        sim.check().unwrap();
+    });
+    assert_eq!(
+        n, 0,
+        "{n} heap allocations in {STEPS} steps with every contact model"
+    );
+    assert!(rebuilds >= 1, "the broad phase never ran");
+    let (g, _) = octoarm_physics::obstacle_penetration(
+        sim.model(),
+        &sim.view(),
+        sim.system.obstacle_set(),
+        sim.time(),
+    );
+    assert!(g > 0.0, "no obstacle contact");
 }

@@ -243,6 +243,7 @@ fn cantilever_scene(r: &Mat3, b: Vec3) -> Simulation {
     sim.set_contact(ContactParams {
         beta: 0.01,
         zeta: 0.5,
+        ..ContactParams::default()
     })
     .unwrap();
     sim.add_obstacle(Sphere::fixed(place([2.5, -0.5495, 0.0]), 0.3))
@@ -251,6 +252,7 @@ fn cantilever_scene(r: &Mat3, b: Vec3) -> Simulation {
         center: place([1.2, 0.62, 0.0]),
         radius: 0.36,
         velocity: rot(r, [0.0, -0.02, 0.0]),
+        friction: octoarm_physics::Friction::NONE,
     })
     .unwrap();
     sim

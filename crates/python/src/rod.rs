@@ -391,18 +391,21 @@ impl Simulation {
     /// A system of rods (a sequence of `Rod`, names unique) joined by `joints` (a sequence of
     /// `Joint`), at rest in the rods' initial shapes at t = 0, undamped, time step `dt` [s].
     #[staticmethod]
-    #[pyo3(signature = (rods, joints = Vec::new(), dt = 1.0e-5, energy_consistent = false),
-        text_signature = "(rods, joints=(), dt=1e-05, energy_consistent=False)")]
+    /// `clamp_order` 2 selects the second-order clamp (see docs/physics.md).
+    #[pyo3(signature = (rods, joints = Vec::new(), dt = 1.0e-5, energy_consistent = false, clamp_order = 1),
+        text_signature = "(rods, joints=(), dt=1e-05, energy_consistent=False, clamp_order=1)")]
     fn from_rods(
         rods: Vec<PyRef<'_, Rod>>,
         joints: Vec<PyRef<'_, Joint>>,
         dt: f64,
         energy_consistent: bool,
+        clamp_order: u8,
     ) -> PyResult<Self> {
         let rods: Vec<Rod> = rods.iter().map(|r| (**r).clone()).collect();
         let joints: Vec<Joint> = joints.iter().map(|j| (**j).clone()).collect();
         let settings = Settings {
             energy_consistent,
+            clamp_order,
             ..Settings::with_dt(dt)
         };
         let (system, state) = build_system(&rods, &joints, settings)?;
@@ -707,23 +710,124 @@ impl Simulation {
     }
 
     /// Add a rigid sphere obstacle (every rod touches it): centre [m] at t = 0, radius [m] > 0,
-    /// velocity [m/s].
-    #[pyo3(signature = (center, radius, velocity = None),
-        text_signature = "(self, center, radius, velocity=(0.0, 0.0, 0.0))")]
+    /// velocity [m/s], Coulomb friction (see `add_plane`).
+    #[pyo3(signature = (center, radius, velocity = None, friction = None, kinetic_friction = None),
+        text_signature = "(self, center, radius, velocity=(0.0, 0.0, 0.0), friction=0.0, kinetic_friction=None)")]
     fn add_obstacle(
         &self,
         py: Python<'_>,
         center: &Bound<'_, PyAny>,
         radius: f64,
         velocity: Option<&Bound<'_, PyAny>>,
+        friction: Option<&Bound<'_, PyAny>>,
+        kinetic_friction: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let center = read_vec3(center, "center")?;
         let velocity = read_vec3_or(velocity, "velocity", [0.0; 3])?;
+        let friction = read_friction(friction, kinetic_friction)?;
         self.lock(py)
             .add_obstacle(Sphere {
                 center,
                 radius,
                 velocity,
+                friction,
+            })
+            .map_err(model_error)
+    }
+
+    /// Add a rigid plane (every rod touches it): a `point` on it [m], its `normal` towards the
+    /// rods, and Coulomb friction: `friction` the static coefficient (a number, or three numbers
+    /// for sliding forward / backward along the rod and laterally), `kinetic_friction` the
+    /// kinetic one (default: the static one).
+    #[pyo3(signature = (point, normal, friction = None, kinetic_friction = None),
+        text_signature = "(self, point, normal, friction=0.0, kinetic_friction=None)")]
+    fn add_plane(
+        &self,
+        py: Python<'_>,
+        point: &Bound<'_, PyAny>,
+        normal: &Bound<'_, PyAny>,
+        friction: Option<&Bound<'_, PyAny>>,
+        kinetic_friction: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let point = read_vec3(point, "point")?;
+        let normal = read_vec3(normal, "normal")?;
+        let friction = read_friction(friction, kinetic_friction)?;
+        self.lock(py)
+            .add_plane(phys::Plane {
+                point,
+                normal,
+                friction,
+            })
+            .map_err(model_error)
+    }
+
+    /// Add a rigid finite cylinder (a capsule: every point within `radius` of the axis segment
+    /// of `length` centred on `center` along `axis`), moving at `velocity` [m/s], with Coulomb
+    /// friction as `add_plane`.
+    #[pyo3(signature = (center, axis, radius, length, velocity = None, friction = None, kinetic_friction = None),
+        text_signature = "(self, center, axis, radius, length, velocity=(0.0, 0.0, 0.0), friction=0.0, kinetic_friction=None)")]
+    #[allow(clippy::too_many_arguments)]
+    fn add_cylinder(
+        &self,
+        py: Python<'_>,
+        center: &Bound<'_, PyAny>,
+        axis: &Bound<'_, PyAny>,
+        radius: f64,
+        length: f64,
+        velocity: Option<&Bound<'_, PyAny>>,
+        friction: Option<&Bound<'_, PyAny>>,
+        kinetic_friction: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let center = read_vec3(center, "center")?;
+        let axis = read_vec3(axis, "axis")?;
+        let velocity = read_vec3_or(velocity, "velocity", [0.0; 3])?;
+        let friction = read_friction(friction, kinetic_friction)?;
+        self.lock(py)
+            .add_cylinder(phys::Cylinder {
+                center,
+                axis,
+                radius,
+                length,
+                velocity,
+                friction,
+            })
+            .map_err(model_error)
+    }
+
+    /// Set the contact parameters: penalty stiffness factor `beta` (k = β E A / l) and damping
+    /// ratio `zeta`; whether different rods touch (`rods`) and a rod touches itself
+    /// (`self_contact`), with Coulomb friction between rods (`rod_friction`,
+    /// `rod_kinetic_friction`, as `add_plane`); the friction regularisation `friction_eta`
+    /// (viscosity η m / Δt), `stick_stiffness` (obstacle stick spring / k) and the rod–rod
+    /// `slip_velocity` [m/s].
+    #[pyo3(signature = (beta = 1.0, zeta = 0.5, rods = false, self_contact = false,
+        rod_friction = None, rod_kinetic_friction = None, friction_eta = 0.5,
+        stick_stiffness = 0.5, slip_velocity = 1e-3))]
+    #[allow(clippy::too_many_arguments)]
+    fn set_contact(
+        &self,
+        py: Python<'_>,
+        beta: f64,
+        zeta: f64,
+        rods: bool,
+        self_contact: bool,
+        rod_friction: Option<&Bound<'_, PyAny>>,
+        rod_kinetic_friction: Option<&Bound<'_, PyAny>>,
+        friction_eta: f64,
+        stick_stiffness: f64,
+        slip_velocity: f64,
+    ) -> PyResult<()> {
+        let rod_friction = read_friction(rod_friction, rod_kinetic_friction)?;
+        self.lock(py)
+            .set_contact(phys::ContactParams {
+                beta,
+                zeta,
+                friction_eta,
+                stick_stiffness,
+                slip_velocity,
+                rods,
+                self_contact,
+                rod_friction,
             })
             .map_err(model_error)
     }
@@ -976,4 +1080,38 @@ pub fn rust_step_rate(py: Python<'_>, sim: &Simulation, steps: u64) -> PyResult<
     let t0 = Instant::now();
     py.detach(|| s.run(steps)).map_err(|e| step_error(py, e))?;
     Ok(steps as f64 / t0.elapsed().as_secs_f64())
+}
+
+/// Friction coefficients from Python: a number or three numbers (forward, backward, lateral)
+/// for the static coefficient, and the kinetic one likewise (default: the static one).
+fn read_friction(
+    static_mu: Option<&Bound<'_, PyAny>>,
+    kinetic: Option<&Bound<'_, PyAny>>,
+) -> PyResult<phys::Friction> {
+    let Some(static_mu) = static_mu else {
+        if kinetic.is_some() {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "kinetic_friction needs friction (the static coefficient) too",
+            ));
+        }
+        return Ok(phys::Friction::NONE);
+    };
+    let three = |o: &Bound<'_, PyAny>, field: &str| -> PyResult<[f64; 3]> {
+        if let Ok(x) = o.extract::<f64>() {
+            Ok([x; 3])
+        } else {
+            read_vec3(o, field)
+        }
+    };
+    let s = three(static_mu, "friction")?;
+    let k = match kinetic {
+        Some(k) => three(k, "kinetic_friction")?,
+        None => s,
+    };
+    let f = phys::Friction {
+        static_mu: s,
+        kinetic_mu: k,
+    };
+    f.validate().map_err(model_error)?;
+    Ok(f)
 }

@@ -63,7 +63,8 @@ pub(crate) fn end_condition_object(py: Python<'_>, c: &EndCondition) -> PyResult
 /// moved by `displacement` [m] (k, 3) and the end frame has turned by the rotation vector
 /// `rotation` [rad] (k, 3; axis × angle, lab frame, about the end node); both are linear in
 /// time between samples and held after the last. Omitted arrays are zero; both must be zero at
-/// t = 0.
+/// t = 0. With `slides_along` (a direction) the end node is not held along it but slides under
+/// the loads on it.
 #[pyclass(module = "octoarm", frozen)]
 #[derive(Clone)]
 pub struct Motion {
@@ -73,11 +74,12 @@ pub struct Motion {
 #[pymethods]
 impl Motion {
     #[new]
-    #[pyo3(signature = (times, displacement = None, rotation = None))]
+    #[pyo3(signature = (times, displacement = None, rotation = None, slides_along = None))]
     fn new(
         times: &Bound<'_, PyAny>,
         displacement: Option<&Bound<'_, PyAny>>,
         rotation: Option<&Bound<'_, PyAny>>,
+        slides_along: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let times = read_vector(times, "times")?;
         let k = times.len();
@@ -89,6 +91,9 @@ impl Motion {
             displacement: read(displacement, "displacement")?,
             rotation: read(rotation, "rotation")?,
             times,
+            slides_along: slides_along
+                .map(|a| read_vec3(a, "slides_along"))
+                .transpose()?,
         };
         inner.validate().map_err(model_error)?;
         Ok(Self { inner })
@@ -146,7 +151,10 @@ impl Motion {
 /// conditions, each "free", "pinned" (node held, free to turn), "clamped" (node and frame held)
 /// or a `Motion` (a driven clamped end). The defaults are the paper's arm: 100 elements,
 /// L = 0.2 m, diameter 2 cm → 0.04 cm, ρ = 700 kg/m³, E = 10 kPa, G = 1 kPa, along +x with
-/// d1 = e_y from the origin, base clamped, tip free. SI units.
+/// d1 = e_y from the origin, base clamped, tip free. SI units. `positions` (n + 1, 3) and
+/// `directors` (n, 3, 3; rows d1, d2, d3, orthonormal) optionally give the initial shape
+/// instead of the straight one (the rest shape stays straight or pre-curved, with rest lengths
+/// L / n); held ends are held where this shape puts them.
 #[pyclass(module = "octoarm", frozen)]
 #[derive(Clone)]
 pub struct Rod {
@@ -156,12 +164,20 @@ pub struct Rod {
     geometry: StraightRod,
     base: EndCondition,
     tip: EndCondition,
+    positions: Option<Vec<Vec3>>,
+    directors: Option<Vec<phys::Mat3>>,
 }
 
 impl Rod {
     /// The physics rod: its model, initial state and end conditions.
     fn spec(&self) -> PyResult<RodSpec> {
-        let (model, state) = self.geometry.build().map_err(model_error)?;
+        let (model, mut state) = self.geometry.build().map_err(model_error)?;
+        if let Some(p) = &self.positions {
+            state.position.clone_from(p);
+        }
+        if let Some(q) = &self.directors {
+            state.director.clone_from(q);
+        }
         Ok(RodSpec {
             name: self.name.clone(),
             model: Arc::new(model),
@@ -180,14 +196,15 @@ impl Rod {
         name = "rod", n_elements = 100, length = 0.2, base_diameter = 0.02,
         tip_diameter = 0.0004, density = 700.0, youngs_modulus = 1.0e4, shear_modulus = 1.0e3,
         shear_coefficient = Material::DEFAULT_SHEAR_COEFFICIENT,
-        base_position = None, direction = None, normal = None, rest_curvature = None, base = None, tip = None
+        base_position = None, direction = None, normal = None, rest_curvature = None, base = None, tip = None,
+        positions = None, directors = None
     ))]
     #[pyo3(
         text_signature = "(name='rod', n_elements=100, length=0.2, base_diameter=0.02, \
         tip_diameter=0.0004, density=700.0, youngs_modulus=10000.0, shear_modulus=1000.0, \
         shear_coefficient=0.9642857142857143, base_position=(0.0, 0.0, 0.0), \
         direction=(1.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), rest_curvature=(0.0, 0.0, 0.0), \
-        base='clamped', tip='free')"
+        base='clamped', tip='free', positions=None, directors=None)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -206,11 +223,20 @@ impl Rod {
         rest_curvature: Option<&Bound<'_, PyAny>>,
         base: Option<&Bound<'_, PyAny>>,
         tip: Option<&Bound<'_, PyAny>>,
+        positions: Option<&Bound<'_, PyAny>>,
+        directors: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let base_position = read_vec3_or(base_position, "base_position", [0.0; 3])?;
         let direction = read_vec3_or(direction, "direction", [1.0, 0.0, 0.0])?;
         let normal = read_vec3_or(normal, "normal", [0.0, 1.0, 0.0])?;
         let rest_curvature = read_vec3_or(rest_curvature, "rest_curvature", [0.0; 3])?;
+        let n_el = check_count("n_elements", n_elements, 2)?;
+        let positions = positions
+            .map(|a| read_vec3s(a, "positions", n_el + 1))
+            .transpose()?;
+        let directors = directors
+            .map(|a| crate::arrays::read_mat3s(a, "directors", n_el))
+            .transpose()?;
         if name.is_empty() {
             return Err(PyValueError::new_err(
                 "name = \"\" is not allowed: a rod needs a name",
@@ -242,12 +268,22 @@ impl Rod {
             .map(|t| end_condition("tip", t))
             .transpose()?
             .unwrap_or(EndCondition::Free);
-        Ok(Self {
+        let rod = Self {
             name: name.to_string(),
             geometry,
             base,
             tip,
-        })
+            positions,
+            directors,
+        };
+        // An initial shape is checked now too (finite, orthonormal frames).
+        if rod.positions.is_some() || rod.directors.is_some() {
+            let spec = rod.spec()?;
+            let mut b = SystemBuilder::new(Settings::default());
+            b.rod(spec);
+            b.build().map_err(model_error)?;
+        }
+        Ok(rod)
     }
 
     /// Number of elements n.

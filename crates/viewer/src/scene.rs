@@ -1,7 +1,7 @@
 //! What the page draws besides the recorded arrays, read tolerantly from a run's resolved
 //! `scenario.toml`: each rod's name and per-element rest radius (linear taper, as the physics
-//! builds it), the obstacles of every kind as written (spheres today; planes and cylinders are
-//! passed through for the page to draw), the targets and the grasped object. A missing or
+//! builds it), the obstacles of every kind as written (`[[obstacle]]` spheres, `[[plane]]` and
+//! `[[cylinder]]` tables, passed through with their kind for the page to draw), the targets and the grasped object. A missing or
 //! unreadable scenario gives an empty scene: the page then draws rods with a default radius.
 
 use serde_json::{json, Map, Value};
@@ -83,15 +83,22 @@ pub fn scene_of(scenario_toml: Option<&str>) -> Value {
             .map(|a| a.iter().map(to_json).collect())
             .unwrap_or_default()
     };
-    let obstacles: Vec<Value> = list("obstacle")
-        .into_iter()
-        .map(|mut o| {
+    // `[[obstacle]]` (spheres unless a kind says otherwise), `[[plane]]` and `[[cylinder]]`.
+    let obstacles: Vec<Value> = [
+        ("obstacle", "sphere"),
+        ("plane", "plane"),
+        ("cylinder", "cylinder"),
+    ]
+    .into_iter()
+    .flat_map(|(key, kind)| {
+        list(key).into_iter().map(move |mut o| {
             if let Some(m) = o.as_object_mut() {
-                m.entry("kind").or_insert(json!("sphere"));
+                m.entry("kind").or_insert(json!(kind));
             }
             o
         })
-        .collect();
+    })
+    .collect();
     let mut out = Map::new();
     out.insert("rods".into(), Value::Array(rods));
     out.insert("obstacles".into(), Value::Array(obstacles));

@@ -36,6 +36,12 @@ pub struct ScenarioConfig {
     /// `[[obstacle]]`: rigid obstacles, any number.
     #[serde(default, rename = "obstacle", skip_serializing_if = "Vec::is_empty")]
     pub obstacles: Vec<ObstacleConfig>,
+    /// `[[plane]]`: rigid planes (floors, walls), any number.
+    #[serde(default, rename = "plane", skip_serializing_if = "Vec::is_empty")]
+    pub planes: Vec<PlaneConfig>,
+    /// `[[cylinder]]`: rigid finite cylinders, any number.
+    #[serde(default, rename = "cylinder", skip_serializing_if = "Vec::is_empty")]
+    pub cylinders: Vec<CylinderConfig>,
     /// `[[joint]]`: joints between rod ends, any number.
     #[serde(default, rename = "joint", skip_serializing_if = "Vec::is_empty")]
     pub joints: Vec<JointConfig>,
@@ -347,6 +353,10 @@ pub struct NumericsConfig {
     /// Steps between stability-guard checks, in [1, 1000000]; default 100.
     #[serde(default = "default_guard_interval")]
     pub guard_interval: u64,
+    /// Clamp formulation: 1 (default, the rigid clamped element of PyElastica) or 2 (the
+    /// second-order clamp, docs/physics.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clamp_order: Option<u8>,
 }
 
 impl Default for NumericsConfig {
@@ -354,6 +364,7 @@ impl Default for NumericsConfig {
         Self {
             energy_consistent: false,
             guard_interval: default_guard_interval(),
+            clamp_order: None,
         }
     }
 }
@@ -368,6 +379,27 @@ pub struct ContactConfig {
     /// Damping ratio ζ, ≥ 0; default 0.5.
     #[serde(default = "default_zeta")]
     pub zeta: f64,
+    /// Whether different rods touch each other; default false.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub rods: bool,
+    /// Whether a rod touches itself; default false.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub self_contact: bool,
+    /// Static Coulomb friction between rods: a number, or [forward, backward, lateral]; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rod_friction: Option<FrictionValue>,
+    /// Kinetic friction between rods (≤ the static one); default the static one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rod_kinetic_friction: Option<FrictionValue>,
+    /// Friction regularisation η in (0, 1]: viscosity η m / Δt; default 0.5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction_eta: Option<f64>,
+    /// Stick-spring stiffness of obstacle friction / contact stiffness, in (0, 1]; default 0.5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stick_stiffness: Option<f64>,
+    /// Slip speed of rod–rod friction [m/s], > 0; default 1e-3.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slip_velocity: Option<f64>,
 }
 
 impl Default for ContactConfig {
@@ -375,8 +407,82 @@ impl Default for ContactConfig {
         Self {
             beta: default_beta(),
             zeta: default_zeta(),
+            rods: false,
+            self_contact: false,
+            rod_friction: None,
+            rod_kinetic_friction: None,
+            friction_eta: None,
+            stick_stiffness: None,
+            slip_velocity: None,
         }
     }
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+/// A friction coefficient: one number (isotropic) or three (forward, backward, lateral).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum FrictionValue {
+    /// The same coefficient in every direction.
+    Isotropic(f64),
+    /// Forward (along the rod, base → tip), backward, lateral.
+    Anisotropic([f64; 3]),
+}
+
+impl FrictionValue {
+    /// The three coefficients.
+    pub fn three(self) -> [f64; 3] {
+        match self {
+            FrictionValue::Isotropic(m) => [m; 3],
+            FrictionValue::Anisotropic(m) => m,
+        }
+    }
+}
+
+/// `[[plane]]`: a rigid unbounded plane that every rod touches.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneConfig {
+    /// A point on the plane [m].
+    #[serde(deserialize_with = "strict::vec3")]
+    pub point: Vec3,
+    /// Normal towards the rods (any length > 0).
+    #[serde(deserialize_with = "strict::vec3")]
+    pub normal: Vec3,
+    /// Static Coulomb friction (number or [forward, backward, lateral]); default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<FrictionValue>,
+    /// Kinetic friction (≤ static); default the static one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kinetic_friction: Option<FrictionValue>,
+}
+
+/// `[[cylinder]]`: a rigid finite cylinder (a capsule: round ends) that every rod touches.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CylinderConfig {
+    /// Centre of the axis at t = 0 [m].
+    #[serde(deserialize_with = "strict::vec3")]
+    pub center: Vec3,
+    /// Axis direction (any length > 0).
+    #[serde(deserialize_with = "strict::vec3")]
+    pub axis: Vec3,
+    /// Diameter [m], > 0.
+    pub diameter: f64,
+    /// Length of the axis [m], ≥ 0.
+    pub length: f64,
+    /// Constant velocity [m/s]; default 0.
+    #[serde(default, deserialize_with = "strict::vec3")]
+    pub velocity: Vec3,
+    /// Static Coulomb friction (number or [forward, backward, lateral]); default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<FrictionValue>,
+    /// Kinetic friction (≤ static); default the static one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kinetic_friction: Option<FrictionValue>,
 }
 
 /// The kinds of `[[load]]` (spec §9).
@@ -492,6 +598,12 @@ pub struct ObstacleConfig {
     /// Constant velocity of the centre [m/s]; default 0 (fixed).
     #[serde(default, deserialize_with = "strict::vec3")]
     pub velocity: Vec3,
+    /// Static Coulomb friction (number or [forward, backward, lateral]); default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<FrictionValue>,
+    /// Kinetic friction (≤ static); default the static one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kinetic_friction: Option<FrictionValue>,
 }
 
 /// The kinds of `[[joint]]`.

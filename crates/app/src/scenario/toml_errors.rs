@@ -160,7 +160,16 @@ pub(crate) fn explain_toml_error(source: &str, e: &toml::de::Error) -> String {
 }
 
 /// Sections that are arrays of tables (`[[load]]`) and sections that are single tables.
-const ARRAY_SECTIONS: [&str; 6] = ["rod", "load", "obstacle", "joint", "target", "acceptance"];
+const ARRAY_SECTIONS: [&str; 8] = [
+    "rod",
+    "load",
+    "obstacle",
+    "plane",
+    "cylinder",
+    "joint",
+    "target",
+    "acceptance",
+];
 const SINGLE_SECTIONS: [&str; 9] = [
     "time",
     "damping",

@@ -174,6 +174,45 @@ pub(crate) fn finite_vec(key: &str, v: Vec3) -> Result<(), Invalid> {
     }
 }
 
+fn nonzero_vec(key: &str, v: Vec3) -> Result<(), Invalid> {
+    unit_vec(key, v).map(|_| ())
+}
+
+/// Friction coefficients: each ≥ 0 and finite, kinetic ≤ static in every direction.
+fn check_friction(
+    key: &str,
+    kinetic_key: &str,
+    stat: Option<FrictionValue>,
+    kinetic: Option<FrictionValue>,
+) -> Result<(), Invalid> {
+    let s = stat.map_or([0.0; 3], FrictionValue::three);
+    for v in s {
+        non_negative(key, v)?;
+    }
+    if let Some(k) = kinetic {
+        if stat.is_none() {
+            return Err(rule(
+                kinetic_key,
+                format!("needs {key} (the static coefficient) too"),
+            ));
+        }
+        for (c, v) in k.three().into_iter().enumerate() {
+            non_negative(kinetic_key, v)?;
+            if v > s[c] {
+                return Err(bad(
+                    kinetic_key,
+                    v,
+                    format!(
+                        "[0, {}] (kinetic friction cannot exceed static)",
+                        fmt_num(s[c])
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 fn unit_vec(key: &str, v: Vec3) -> Result<Vec3, Invalid> {
     finite_vec(key, v)?;
     // Scaled by the largest component first: [1e-300, 0, 0] and [1e200, 0, 0] are directions.
@@ -314,6 +353,13 @@ impl ScenarioConfig {
             MAX_ITEMS,
             "[[obstacle]] tables",
         )?;
+        at_most("plane", self.planes.len(), MAX_ITEMS, "[[plane]] tables")?;
+        at_most(
+            "cylinder",
+            self.cylinders.len(),
+            MAX_ITEMS,
+            "[[cylinder]] tables",
+        )?;
         at_most("joint", self.joints.len(), MAX_ITEMS, "[[joint]] tables")?;
         at_most("target", self.targets.len(), MAX_ITEMS, "[[target]] tables")?;
         at_most(
@@ -341,6 +387,41 @@ impl ScenarioConfig {
         }
         positive("contact.beta", self.contact.beta)?;
         non_negative("contact.zeta", self.contact.zeta)?;
+        if let Some(o) = self.numerics.clamp_order {
+            if !(1..=2).contains(&o) {
+                return Err(bad(
+                    "numerics.clamp_order",
+                    f64::from(o),
+                    "{1, 2}".to_string(),
+                ));
+            }
+        }
+        for (key, v, hi) in [
+            ("contact.friction_eta", self.contact.friction_eta, 1.0),
+            ("contact.stick_stiffness", self.contact.stick_stiffness, 1.0),
+            (
+                "contact.slip_velocity",
+                self.contact.slip_velocity,
+                f64::INFINITY,
+            ),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0 && v <= hi) {
+                    let range = if hi.is_finite() {
+                        format!("(0, {hi}]")
+                    } else {
+                        "(0, inf), finite".to_string()
+                    };
+                    return Err(bad(key, v, range));
+                }
+            }
+        }
+        check_friction(
+            "contact.rod_friction",
+            "contact.rod_kinetic_friction",
+            self.contact.rod_friction,
+            self.contact.rod_kinetic_friction,
+        )?;
 
         for (i, load) in self.loads.iter().enumerate() {
             self.validate_load(i, load)?;
@@ -349,6 +430,35 @@ impl ScenarioConfig {
             finite_vec(&format!("obstacle[{i}].center"), ob.center)?;
             positive(&format!("obstacle[{i}].diameter"), ob.diameter)?;
             finite_vec(&format!("obstacle[{i}].velocity"), ob.velocity)?;
+            check_friction(
+                &format!("obstacle[{i}].friction"),
+                &format!("obstacle[{i}].kinetic_friction"),
+                ob.friction,
+                ob.kinetic_friction,
+            )?;
+        }
+        for (i, p) in self.planes.iter().enumerate() {
+            finite_vec(&format!("plane[{i}].point"), p.point)?;
+            nonzero_vec(&format!("plane[{i}].normal"), p.normal)?;
+            check_friction(
+                &format!("plane[{i}].friction"),
+                &format!("plane[{i}].kinetic_friction"),
+                p.friction,
+                p.kinetic_friction,
+            )?;
+        }
+        for (i, c) in self.cylinders.iter().enumerate() {
+            finite_vec(&format!("cylinder[{i}].center"), c.center)?;
+            nonzero_vec(&format!("cylinder[{i}].axis"), c.axis)?;
+            positive(&format!("cylinder[{i}].diameter"), c.diameter)?;
+            non_negative(&format!("cylinder[{i}].length"), c.length)?;
+            finite_vec(&format!("cylinder[{i}].velocity"), c.velocity)?;
+            check_friction(
+                &format!("cylinder[{i}].friction"),
+                &format!("cylinder[{i}].kinetic_friction"),
+                c.friction,
+                c.kinetic_friction,
+            )?;
         }
         for (i, j) in self.joints.iter().enumerate() {
             self.validate_joint(i, j)?;

@@ -60,6 +60,7 @@ class Motion:
         times: npt.ArrayLike,
         displacement: npt.ArrayLike | None = None,
         rotation: npt.ArrayLike | None = None,
+        slides_along: _Vec3 | None = None,
     ) -> Motion: ...
     @staticmethod
     def constant_rotation(rate: _Vec3, until: float) -> Motion: ...
@@ -90,6 +91,8 @@ class Rod:
         rest_curvature: _Vec3 | None = ...,
         base: _EndCondition | None = "clamped",
         tip: _EndCondition | None = "free",
+        positions: npt.ArrayLike | None = None,
+        directors: npt.ArrayLike | None = None,
     ) -> Rod: ...
     @property
     def name(self) -> str: ...
@@ -184,6 +187,7 @@ class Simulation:
         joints: Sequence[Joint] = (),
         dt: float = 1e-05,
         energy_consistent: bool = False,
+        clamp_order: int = 1,
     ) -> Simulation: ...
     def copy(self) -> Simulation: ...
     def __copy__(self) -> Simulation: ...
@@ -231,7 +235,41 @@ class Simulation:
     ) -> None: ...
     def clear_loads(self) -> None: ...
     def add_obstacle(
-        self, center: _Vec3, radius: float, velocity: _Vec3 | None = ...
+        self,
+        center: _Vec3,
+        radius: float,
+        velocity: _Vec3 | None = ...,
+        friction: float | _Vec3 | None = None,
+        kinetic_friction: float | _Vec3 | None = None,
+    ) -> None: ...
+    def add_plane(
+        self,
+        point: _Vec3,
+        normal: _Vec3,
+        friction: float | _Vec3 | None = None,
+        kinetic_friction: float | _Vec3 | None = None,
+    ) -> None: ...
+    def add_cylinder(
+        self,
+        center: _Vec3,
+        axis: _Vec3,
+        radius: float,
+        length: float,
+        velocity: _Vec3 | None = ...,
+        friction: float | _Vec3 | None = None,
+        kinetic_friction: float | _Vec3 | None = None,
+    ) -> None: ...
+    def set_contact(
+        self,
+        beta: float = 1.0,
+        zeta: float = 0.5,
+        rods: bool = False,
+        self_contact: bool = False,
+        rod_friction: float | _Vec3 | None = None,
+        rod_kinetic_friction: float | _Vec3 | None = None,
+        friction_eta: float = 0.5,
+        stick_stiffness: float = 0.5,
+        slip_velocity: float = 0.001,
     ) -> None: ...
     def clear_obstacles(self) -> None: ...
     def set_damping(self, rate: float = 0.0, gamma: float = 0.0, rod: str | None = None) -> None: ...
