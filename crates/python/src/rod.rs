@@ -712,7 +712,7 @@ impl Simulation {
     /// Add a rigid sphere obstacle (every rod touches it): centre [m] at t = 0, radius [m] > 0,
     /// velocity [m/s], Coulomb friction (see `add_plane`).
     #[pyo3(signature = (center, radius, velocity = None, friction = None, kinetic_friction = None),
-        text_signature = "(self, center, radius, velocity=(0.0, 0.0, 0.0), friction=0.0, kinetic_friction=None)")]
+        text_signature = "(self, center, radius, velocity=(0.0, 0.0, 0.0), friction=None, kinetic_friction=None)")]
     fn add_obstacle(
         &self,
         py: Python<'_>,
@@ -740,7 +740,7 @@ impl Simulation {
     /// for sliding forward / backward along the rod and laterally), `kinetic_friction` the
     /// kinetic one (default: the static one).
     #[pyo3(signature = (point, normal, friction = None, kinetic_friction = None),
-        text_signature = "(self, point, normal, friction=0.0, kinetic_friction=None)")]
+        text_signature = "(self, point, normal, friction=None, kinetic_friction=None)")]
     fn add_plane(
         &self,
         py: Python<'_>,
@@ -765,7 +765,7 @@ impl Simulation {
     /// of `length` centred on `center` along `axis`), moving at `velocity` [m/s], with Coulomb
     /// friction as `add_plane`.
     #[pyo3(signature = (center, axis, radius, length, velocity = None, friction = None, kinetic_friction = None),
-        text_signature = "(self, center, axis, radius, length, velocity=(0.0, 0.0, 0.0), friction=0.0, kinetic_friction=None)")]
+        text_signature = "(self, center, axis, radius, length, velocity=(0.0, 0.0, 0.0), friction=None, kinetic_friction=None)")]
     #[allow(clippy::too_many_arguments)]
     fn add_cylinder(
         &self,
