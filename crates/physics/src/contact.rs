@@ -128,14 +128,9 @@ pub struct Plane {
 impl Plane {
     /// A plane through `point` with normal `normal` (any length > 0) and `friction`.
     pub fn new(point: Vec3, normal: Vec3, friction: Friction) -> Self {
-        let l = norm(normal);
         Self {
             point,
-            normal: if l > 0.0 {
-                scale(1.0 / l, normal)
-            } else {
-                normal
-            },
+            normal: normalised(normal),
             friction,
         }
     }
@@ -143,18 +138,37 @@ impl Plane {
     /// Check the point, a non-zero finite normal (normalised here) and the friction.
     pub fn validate(&mut self) -> Result<(), ModelError> {
         finite_vec("plane.point", self.point)?;
-        finite_vec("plane.normal", self.normal)?;
-        let l = norm(self.normal);
-        if !(l > 0.0 && l.is_finite()) {
-            return Err(ModelError::BadVector {
-                field: "plane.normal",
-                value: self.normal,
-                reason: "the normal must be a non-zero vector",
-            });
-        }
-        self.normal = scale(1.0 / l, self.normal);
+        self.normal = unit_vector(
+            "plane.normal",
+            self.normal,
+            "the normal must be a non-zero vector",
+        )?;
         self.friction.validate()
     }
+}
+
+/// `v` scaled to unit length, or `v` itself when it is zero (validation refuses it later).
+fn normalised(v: Vec3) -> Vec3 {
+    let l = norm(v);
+    if l > 0.0 {
+        scale(1.0 / l, v)
+    } else {
+        v
+    }
+}
+
+/// `v` (field `field`) checked finite and non-zero, and scaled to unit length.
+fn unit_vector(field: &'static str, v: Vec3, reason: &'static str) -> Result<Vec3, ModelError> {
+    finite_vec(field, v)?;
+    let l = norm(v);
+    if !(l > 0.0 && l.is_finite()) {
+        return Err(ModelError::BadVector {
+            field,
+            value: v,
+            reason,
+        });
+    }
+    Ok(scale(1.0 / l, v))
 }
 
 /// A rigid finite cylinder with hemispherical caps (a capsule): every point within `radius` of
@@ -180,10 +194,9 @@ pub struct Cylinder {
 impl Cylinder {
     /// A fixed cylinder.
     pub fn fixed(center: Vec3, axis: Vec3, radius: f64, length: f64, friction: Friction) -> Self {
-        let l = norm(axis);
         Self {
             center,
-            axis: if l > 0.0 { scale(1.0 / l, axis) } else { axis },
+            axis: normalised(axis),
             radius,
             length,
             velocity: [0.0; 3],
@@ -194,16 +207,11 @@ impl Cylinder {
     /// Check the geometry (normalising the axis), the velocity and the friction.
     pub fn validate(&mut self) -> Result<(), ModelError> {
         finite_vec("cylinder.center", self.center)?;
-        finite_vec("cylinder.axis", self.axis)?;
-        let l = norm(self.axis);
-        if !(l > 0.0 && l.is_finite()) {
-            return Err(ModelError::BadVector {
-                field: "cylinder.axis",
-                value: self.axis,
-                reason: "the axis must be a non-zero vector",
-            });
-        }
-        self.axis = scale(1.0 / l, self.axis);
+        self.axis = unit_vector(
+            "cylinder.axis",
+            self.axis,
+            "the axis must be a non-zero vector",
+        )?;
         positive("cylinder.radius", self.radius)?;
         non_negative("cylinder.length", self.length)?;
         finite_vec("cylinder.velocity", self.velocity)?;
