@@ -5,13 +5,14 @@
 //! `MuscleStatics`. The gradient is the exact discrete adjoint: the costate sweep of the forward
 //! map (5.3–5.4), one transposed solve with the factored equilibrium Jacobian, and the
 //! unit-activation group resultants (5.5). The optimiser is projected L-BFGS on b = √l̂ a (5.6),
-//! with group masks (groups held at zero). Grasp costs and COOMM's relaxation are not built yet.
+//! with group masks (groups held at zero). Grasp costs: `GraspTask` (attraction, obstacle,
+//! sucker side) behind the `DesignTask` trait; COOMM's relaxation is not built yet.
 
 use crate::banded::BandMatrix;
 use crate::muscle_statics::{MuscleStatics, MuscleStaticsError, HALF_BAND};
 use octoarm_physics::math::{cross, dot, log_relative, mat_vec, norm, Mat3};
 use octoarm_physics::muscles::{Resultants, Strains};
-use octoarm_physics::{Vec3, N_GROUPS};
+use octoarm_physics::{RodModel, RodState, Vec3, N_GROUPS};
 use std::time::Instant;
 
 /// A reach task: tip point and, optionally, tip frame.
@@ -58,6 +59,186 @@ impl ReachTask {
             self.frame = Some(([q[1], [-q[0][0], -q[0][1], -q[0][2]], q[2]], w));
         }
         self
+    }
+}
+
+/// A task cost Φ(x, Q) of the design (spec §5.1) and its loads (5.2).
+pub trait DesignTask {
+    /// Add Φ and its parts (and task errors) at `pose` to `costs` (`total` is Φ); with `loads`
+    /// = (g, c), add the node loads g_i = ∂Φ/∂x_i (n + 1) and the element lab couples c_j (n),
+    /// δΦ = Σ c_j · δθ_j for lab rotations of the directors.
+    fn cost(
+        &self,
+        model: &RodModel,
+        pose: &RodState,
+        costs: &mut DesignCosts,
+        loads: Option<(&mut [Vec3], &mut [Vec3])>,
+    );
+}
+
+impl DesignTask for ReachTask {
+    fn cost(
+        &self,
+        _model: &RodModel,
+        pose: &RodState,
+        costs: &mut DesignCosts,
+        loads: Option<(&mut [Vec3], &mut [Vec3])>,
+    ) {
+        let x = &pose.position;
+        let q = &pose.director;
+        let n = q.len();
+        let p = [
+            0.5 * (x[n - 1][0] + x[n][0]),
+            0.5 * (x[n - 1][1] + x[n][1]),
+            0.5 * (x[n - 1][2] + x[n][2]),
+        ];
+        let d = [
+            p[0] - self.target[0],
+            p[1] - self.target[1],
+            p[2] - self.target[2],
+        ];
+        let mp = self.position_weight;
+        costs.position = 0.5 * mp * dot(d, d);
+        costs.tip_error = norm(d);
+        let mut tip_couple = [0.0; 3];
+        if let Some((qs, om)) = self.frame {
+            let mq = self.orientation_weight;
+            for m in 0..3 {
+                costs.orientation += mq * om[m] * (1.0 - dot(q[n - 1][m], qs[m]));
+                let c = cross(q[n - 1][m], qs[m]);
+                for k in 0..3 {
+                    tip_couple[k] -= mq * om[m] * c[k];
+                }
+            }
+            costs.orientation_error = log_relative(&q[n - 1], &qs).1;
+        }
+        costs.total += costs.position + costs.orientation;
+        if let Some((g, c)) = loads {
+            // The tip point gives ½ μ_p (p − p*) to nodes n − 1 and n.
+            for i in [n - 1, n] {
+                for k in 0..3 {
+                    g[i][k] += 0.5 * mp * d[k];
+                }
+            }
+            for k in 0..3 {
+                c[n - 1][k] += tip_couple[k];
+            }
+        }
+    }
+}
+
+/// COOMM's grasp of a cylinder with the distal arm (spec §5.1): attraction onto the sphere of
+/// radius R + r̂_j about the centre c, the capped-cylinder obstacle, and the sucker side (d1
+/// towards c), weighted by w_j = ½(1 + tanh(100 (s_j − 0.3))), s_j = j/(n − 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GraspTask {
+    /// Cylinder centre c [m].
+    pub center: Vec3,
+    /// Unit axis.
+    pub axis: Vec3,
+    /// Radius R [m].
+    pub radius: f64,
+    /// Length L_c [m].
+    pub length: f64,
+    /// μ_g [N/m²] (COOMM: 1e6).
+    pub attraction_weight: f64,
+    /// μ_o [N/m²] (1e7).
+    pub obstacle_weight: f64,
+    /// μ_s [N] (1e3).
+    pub sucker_weight: f64,
+}
+
+impl GraspTask {
+    /// COOMM's weights for a cylinder (centre, unit axis, radius, length).
+    pub fn coomm(center: Vec3, axis: Vec3, radius: f64, length: f64) -> Self {
+        Self {
+            center,
+            axis,
+            radius,
+            length,
+            attraction_weight: 1e6,
+            obstacle_weight: 1e7,
+            sucker_weight: 1e3,
+        }
+    }
+
+    /// The same task with every weight multiplied by `f` (a continuation stage).
+    pub fn scaled(mut self, f: f64) -> Self {
+        self.attraction_weight *= f;
+        self.obstacle_weight *= f;
+        self.sucker_weight *= f;
+        self
+    }
+
+    /// The distal weight w_j of element j of n.
+    pub fn weight(j: usize, n: usize) -> f64 {
+        let s = j as f64 / (n - 1) as f64;
+        0.5 * (1.0 + (100.0 * (s - 0.3)).tanh())
+    }
+}
+
+impl DesignTask for GraspTask {
+    fn cost(
+        &self,
+        model: &RodModel,
+        pose: &RodState,
+        costs: &mut DesignCosts,
+        mut loads: Option<(&mut [Vec3], &mut [Vec3])>,
+    ) {
+        let x = &pose.position;
+        let q = &pose.director;
+        let n = q.len();
+        let (c, a, rr) = (self.center, self.axis, self.radius);
+        for j in 0..n {
+            let l = model.rest_length[j];
+            let w = Self::weight(j, n);
+            let p: Vec3 = std::array::from_fn(|k| 0.5 * (x[j][k] + x[j + 1][k]));
+            let r_surf = rr + model.radius[j];
+            let dp = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            let dist = norm(dp);
+            let mut gp = [0.0; 3];
+            // Attraction onto the sphere |p − c| = R + r̂_j.
+            let gap = dist - r_surf;
+            if gap > 0.0 {
+                costs.attraction += 0.5 * l * self.attraction_weight * w * gap * gap;
+                for k in 0..3 {
+                    gp[k] += l * self.attraction_weight * w * gap * dp[k] / dist;
+                }
+            }
+            // Obstacle: radial penetration within the cylinder's length.
+            let z = dot(dp, a);
+            let radial = [dp[0] - z * a[0], dp[1] - z * a[1], dp[2] - z * a[2]];
+            let rho = norm(radial);
+            let pen = r_surf - rho;
+            if pen > 0.0 && z.abs() <= 0.5 * self.length && rho > 0.0 {
+                costs.obstacle += 0.5 * l * self.obstacle_weight * pen * pen;
+                for k in 0..3 {
+                    gp[k] -= l * self.obstacle_weight * pen * radial[k] / rho;
+                }
+            }
+            // Sucker side: d1 towards c.
+            if dist > 0.0 {
+                let u = [-dp[0] / dist, -dp[1] / dist, -dp[2] / dist];
+                let d1 = q[j][0];
+                let du = dot(d1, u);
+                let ms = l * self.sucker_weight * w;
+                costs.sucker += ms * (1.0 - du);
+                if let Some((_, cl)) = loads.as_mut() {
+                    let t = cross(d1, u);
+                    for k in 0..3 {
+                        gp[k] += ms * (d1[k] - du * u[k]) / dist;
+                        cl[j][k] -= ms * t[k];
+                    }
+                }
+            }
+            if let Some((gl, _)) = loads.as_mut() {
+                for k in 0..3 {
+                    gl[j][k] += 0.5 * gp[k];
+                    gl[j + 1][k] += 0.5 * gp[k];
+                }
+            }
+        }
+        costs.total += costs.attraction + costs.obstacle + costs.sucker;
     }
 }
 
@@ -110,7 +291,7 @@ pub enum DesignOutcome {
 /// Costs of one evaluation.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DesignCosts {
-    /// J = R + Φ_p + Φ_Q.
+    /// J = R + Φ (Φ_p + Φ_Q, or Φ_g + Φ_o + Φ_s).
     pub total: f64,
     /// Activation cost R = ½ Σ l̂ a².
     pub activation: f64,
@@ -118,6 +299,12 @@ pub struct DesignCosts {
     pub position: f64,
     /// Tip-orientation cost Φ_Q.
     pub orientation: f64,
+    /// Grasp attraction Φ_g.
+    pub attraction: f64,
+    /// Grasp obstacle Φ_o.
+    pub obstacle: f64,
+    /// Grasp sucker side Φ_s.
+    pub sucker: f64,
     /// Tip-point error |p − p*| [m].
     pub tip_error: f64,
     /// Orientation error θ_Q = |Log(Q_{n−1} Q*ᵀ)| [rad] (0 without a frame).
@@ -189,9 +376,9 @@ impl MuscleDesign {
 
     /// Task cost Φ and its gradient with respect to the strains (the exact discrete adjoint of
     /// the forward map, eqs. 5.2–5.4), for strains `w`; `grad` gets ∂Φ/∂w (interleaved).
-    pub fn task_gradient(
+    pub fn task_gradient<T: DesignTask + ?Sized>(
         &self,
-        task: &ReachTask,
+        task: &T,
         w: &[f64],
         grad: Option<&mut [f64]>,
     ) -> DesignCosts {
@@ -200,43 +387,17 @@ impl MuscleDesign {
         let pose = st.pose(w);
         let x = &pose.position;
         let q = &pose.director;
-        let p = [
-            0.5 * (x[n - 1][0] + x[n][0]),
-            0.5 * (x[n - 1][1] + x[n][1]),
-            0.5 * (x[n - 1][2] + x[n][2]),
-        ];
-        let d = [
-            p[0] - task.target[0],
-            p[1] - task.target[1],
-            p[2] - task.target[2],
-        ];
-        let mp = task.position_weight;
-        let mut costs = DesignCosts {
-            position: 0.5 * mp * dot(d, d),
-            tip_error: norm(d),
-            ..DesignCosts::default()
-        };
-        let mut tip_couple = [0.0; 3];
-        if let Some((qs, om)) = task.frame {
-            let mq = task.orientation_weight;
-            for m in 0..3 {
-                costs.orientation += mq * om[m] * (1.0 - dot(q[n - 1][m], qs[m]));
-                let c = cross(q[n - 1][m], qs[m]);
-                for k in 0..3 {
-                    tip_couple[k] -= mq * om[m] * c[k];
-                }
-            }
-            costs.orientation_error = log_relative(&q[n - 1], &qs).1;
-        }
-        costs.total = costs.position + costs.orientation;
+        let mut costs = DesignCosts::default();
         let Some(grad) = grad else {
+            task.cost(st.model(), &pose, &mut costs, None);
             return costs;
         };
-        // Node loads: the tip point gives ½ μ_p (p − p*) to nodes n − 1 and n.
-        let g_tip = [0.5 * mp * d[0], 0.5 * mp * d[1], 0.5 * mp * d[2]];
-        let g = |i: usize| if i + 1 >= n { g_tip } else { [0.0; 3] };
-        let c = |j: usize| if j + 1 == n { tip_couple } else { [0.0; 3] };
-        // Sweep (5.3): n_{n−1} = −g_n, n_{j−1} = n_j − g_j; m_{k−1} = m_k + (x_{k+1} − x_k) × n_k − c_k.
+        // Node loads g_i = ∂Φ/∂x_i and element lab couples c_j (5.2).
+        let mut gl = vec![[0.0; 3]; n + 1];
+        let mut cl = vec![[0.0; 3]; n];
+        task.cost(st.model(), &pose, &mut costs, Some((&mut gl, &mut cl)));
+        let g = |i: usize| gl[i];
+        let c = |j: usize| cl[j];
         let mut force = [-g(n)[0], -g(n)[1], -g(n)[2]];
         let mut couple = [0.0; 3];
         for j in (0..n).rev() {
@@ -279,9 +440,9 @@ impl MuscleDesign {
 
     /// J(a) and, with `grad`, ∂J/∂a (group-major `[7][n]`): equilibrium (warm-started from the
     /// last one), task cost, adjoint (K ᵀλ = ∇_w Φ with the equilibrium Jacobian) and eq. 5.5.
-    pub fn evaluate(
+    pub fn evaluate<T: DesignTask + ?Sized>(
         &mut self,
-        task: &ReachTask,
+        task: &T,
         a: &[f64],
         grad: Option<&mut [f64]>,
     ) -> Result<DesignCosts, MuscleStaticsError> {
@@ -395,7 +556,11 @@ impl MuscleDesign {
 
     /// Design activations for `task` from `a0` (group-major `[7][n]`, clipped to the bounds)
     /// by projected L-BFGS on b = √l̂ a (spec §5.6).
-    pub fn solve(&mut self, task: &ReachTask, a0: &[f64]) -> (Vec<f64>, DesignReport) {
+    pub fn solve<T: DesignTask + ?Sized>(
+        &mut self,
+        task: &T,
+        a0: &[f64],
+    ) -> (Vec<f64>, DesignReport) {
         let start = Instant::now();
         self.newton_total = 0;
         let n = self.statics.n_elements();
@@ -548,6 +713,37 @@ impl MuscleDesign {
         }
         let report = self.report(outcome, it, evaluations, costs, &a, start);
         (a, report)
+    }
+
+    /// The grasp continuation of spec §5.6: solve with the task's weights × 10^(k − stages + 1)
+    /// for k = 0..stages, each stage warm-started from the last (`config.max_iterations` per
+    /// stage). The report sums iterations, evaluations, Newton iterations and time; its costs
+    /// and outcome are the last stage's.
+    pub fn solve_continuation(
+        &mut self,
+        task: &GraspTask,
+        stages: usize,
+        a0: &[f64],
+    ) -> (Vec<f64>, DesignReport) {
+        let stages = stages.max(1);
+        let mut a = a0.to_vec();
+        let mut total: Option<DesignReport> = None;
+        for k in 0..stages {
+            let f = 10f64.powi(k as i32 + 1 - stages as i32);
+            let (next, rep) = self.solve(&task.scaled(f), &a);
+            a = next;
+            total = Some(match total {
+                None => rep,
+                Some(t) => DesignReport {
+                    iterations: t.iterations + rep.iterations,
+                    evaluations: t.evaluations + rep.evaluations,
+                    newton_iterations: t.newton_iterations + rep.newton_iterations,
+                    seconds: t.seconds + rep.seconds,
+                    ..rep
+                },
+            });
+        }
+        (a, total.expect("at least one stage"))
     }
 
     fn report(

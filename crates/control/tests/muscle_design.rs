@@ -127,3 +127,51 @@ fn reach_design_meets_section_7a_bounds() {
         assert!(turn < std::f64::consts::FRAC_PI_2);
     }
 }
+
+// §8.4 (iv): ∂Φ/∂w of the grasp costs (attraction, obstacle, sucker side) against central
+// differences, for COOMM's cylinder and for one placed across the arm's distal part so that
+// the obstacle term acts.
+#[test]
+fn grasp_gradient_matches_finite_differences() {
+    use octoarm_control::GraspTask;
+    let (mut d, _) = design(100);
+    let n = 100;
+    let a = random(N_GROUPS * n, 3, 0.6);
+    d.evaluate(
+        &GraspTask::coomm([0.0; 3], [0.0, 0.0, 1.0], 0.02, 0.4),
+        &a,
+        None,
+    )
+    .unwrap();
+    let w = d.statics().solution().to_vec();
+    let pose = d.statics().pose(&w);
+    let p70 = pose.position[70];
+    let tasks = [
+        GraspTask::coomm([0.06, -0.05, 0.02], [0.0, 0.0, 1.0], 0.02, 0.4),
+        GraspTask::coomm([p70[0] + 0.01, p70[1], p70[2]], [0.0, 0.0, 1.0], 0.02, 0.4),
+    ];
+    for (t, task) in tasks.iter().enumerate() {
+        let mut grad = vec![0.0; w.len()];
+        let c = d.task_gradient(task, &w, Some(&mut grad));
+        assert!(c.attraction > 0.0 && c.sucker > 0.0, "task {t}: {c:?}");
+        if t == 1 {
+            assert!(c.obstacle > 0.0, "the obstacle term acts: {c:?}");
+        }
+        let gmax = grad.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let h = 1e-7;
+        for p in random(40, 11 + t as u64, w.len() as f64) {
+            let i = p as usize;
+            let mut wp = w.clone();
+            wp[i] += h;
+            let fp = d.task_gradient(task, &wp, None).total;
+            wp[i] -= 2.0 * h;
+            let fm = d.task_gradient(task, &wp, None).total;
+            let fd = (fp - fm) / (2.0 * h);
+            assert!(
+                (fd - grad[i]).abs() <= 1e-6 * gmax,
+                "task {t}, component {i}: adjoint {} vs difference {fd} (max {gmax})",
+                grad[i]
+            );
+        }
+    }
+}
