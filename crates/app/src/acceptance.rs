@@ -215,6 +215,7 @@ impl Tracker {
                     (format!("max {worst:.2e} L0"), Some(within(worst, a)))
                 }
             }
+            (q, _) if q.is_muscle() => ("a quantity of [muscle_control] runs".into(), None),
             _ => unreachable!("the tracker's state matches its claim"),
         }
     }

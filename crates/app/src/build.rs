@@ -443,6 +443,9 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
             .add_obstacle(Sphere::fixed(g.center, 0.5 * g.diameter))
             .map_err(|e| located("grasp".into(), e))?;
     }
+    if let Some(m) = &cfg.muscles {
+        add_muscles(scn, m, &mut system)?;
+    }
     if let Some(init) = &cfg.initial_state {
         initial::apply(scn, init, &system, &mut state)?;
     }
@@ -887,6 +890,58 @@ pub fn task_advisories(scn: &Scenario, system: &RodSystem, state: &SystemState) 
     }
     out
 }
+
+/// `[muscles]` (muscles-3d spec §1–3): the muscle table on its rod, COOMM's drag, the damping
+/// preset and the optional net weight.
+fn add_muscles(
+    scn: &Scenario,
+    m: &MusclesConfig,
+    system: &mut RodSystem,
+) -> Result<(), ScenarioError> {
+    let cfg = &scn.config;
+    let located =
+        |key: &str, e: ModelError| scn.error_at(key, format!("{key}: {}", model_message(&e)));
+    let r = cfg
+        .find_rod("muscles.rod", m.rod.as_deref())
+        .map_err(|b| scn.error_at(&b.key, b.to_string()))?;
+    let model = Arc::clone(&system.rod(r).model);
+    let spec = match m.table {
+        MuscleTableKind::Coomm => octoarm_physics::MuscleSpec::coomm(),
+    };
+    let muscles =
+        octoarm_physics::MuscleModel::new(spec, &model).map_err(|e| located("muscles.table", e))?;
+    system
+        .set_muscles(r, Some(muscles))
+        .map_err(|e| located("muscles", e))?;
+    if m.drag {
+        system
+            .add_load(r, Load::coomm_drag(&model), Schedule::Constant)
+            .map_err(|e| located("muscles.drag", e))?;
+    }
+    if m.damping == MuscleDampingKind::Coomm {
+        let rc = &cfg.rods.list[r];
+        system
+            .set_damping(r, Damping::coomm(rc.density, 0.5 * rc.base_diameter))
+            .map_err(|e| located("muscles.damping", e))?;
+    }
+    if m.net_weight {
+        let rho = cfg.rods.list[r].density;
+        let g = -9.81 * (1.0 - WATER_DENSITY / rho);
+        system
+            .add_load(
+                r,
+                Load::Gravity {
+                    acceleration: [0.0, 0.0, g],
+                },
+                Schedule::Constant,
+            )
+            .map_err(|e| located("muscles.net_weight", e))?;
+    }
+    Ok(())
+}
+
+/// Density of the water of the muscular arm, ρ_w [kg/m³] (muscles-3d spec §3.1).
+pub const WATER_DENSITY: f64 = 1022.0;
 
 /// The task schedule of a controlled scenario.
 pub fn task_schedule(cfg: &ScenarioConfig) -> Option<TaskSchedule> {

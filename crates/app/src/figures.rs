@@ -214,6 +214,142 @@ fn shapes_png_3d(
     Ok(())
 }
 
+/// Colours of the seven muscle groups in `design.png` (TM, LM0..LM3, OM+, OM−).
+pub const GROUP_COLOURS: [RGBColor; 7] = [
+    RGBColor(120, 120, 120),
+    RGBColor(214, 39, 40),
+    RGBColor(31, 119, 180),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(227, 119, 194),
+];
+
+/// `design.png` of a muscle run: the design pose in three orthographic projections and a
+/// perspective view, each element coloured by its most active group (the group's colour mixed
+/// from light grey by the activation), the final pose of the run (black, thin), the tip target
+/// (cross), the base and the grasped cylinder (outline).
+pub fn design_png(
+    path: &Path,
+    design: &crate::muscle_run::MuscleDesignRun,
+    final_pose: Option<&[[f64; 3]]>,
+    cylinders: &[octoarm_physics::Cylinder],
+    title: &str,
+) -> Result<()> {
+    use crate::projection::{draw_four_views, Scene3, Stroke};
+    ensure_font();
+    let n = design.n;
+    let a = &design.activations;
+    let colours: Vec<RGBColor> = (0..n)
+        .map(|j| {
+            let (g, v) =
+                (0..7)
+                    .map(|g| (g, a[g * n + j]))
+                    .fold((0, 0.0), |b, x| if x.1 > b.1 { x } else { b });
+            let c = GROUP_COLOURS[g];
+            mix_rgb(
+                (225.0, 225.0, 225.0),
+                (f64::from(c.0), f64::from(c.1), f64::from(c.2)),
+                v.clamp(0.0, 1.0),
+            )
+        })
+        .collect();
+    let mut scene = Scene3::default();
+    for c in cylinders {
+        let ax = c.axis;
+        let helper = if ax[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        let e1 = octoarm_physics::math::normalize(octoarm_physics::math::cross(ax, helper))
+            .unwrap_or([1.0, 0.0, 0.0]);
+        let e2 = octoarm_physics::math::cross(ax, e1);
+        let grey = RGBColor(170, 170, 170);
+        for h in [-0.5, -0.25, 0.0, 0.25, 0.5] {
+            let ring: Vec<[f64; 3]> = (0..=48)
+                .map(|k| {
+                    let t = k as f64 / 48.0 * std::f64::consts::TAU;
+                    std::array::from_fn(|i| {
+                        c.center[i]
+                            + h * c.length * ax[i]
+                            + c.radius * (t.cos() * e1[i] + t.sin() * e2[i])
+                    })
+                })
+                .collect();
+            scene.strokes.push(Stroke {
+                points: ring,
+                colours: vec![grey],
+                width: 1.0,
+            });
+        }
+        for k in 0..8 {
+            let t = k as f64 / 8.0 * std::f64::consts::TAU;
+            let line: Vec<[f64; 3]> = [-0.5, 0.5]
+                .iter()
+                .map(|h| {
+                    std::array::from_fn(|i| {
+                        c.center[i]
+                            + h * c.length * ax[i]
+                            + c.radius * (t.cos() * e1[i] + t.sin() * e2[i])
+                    })
+                })
+                .collect();
+            scene.strokes.push(Stroke {
+                points: line,
+                colours: vec![grey],
+                width: 1.0,
+            });
+        }
+    }
+    if let Some(p) = final_pose {
+        scene.strokes.push(Stroke {
+            points: p.to_vec(),
+            colours: vec![BLACK],
+            width: 1.0,
+        });
+    }
+    scene.strokes.push(Stroke {
+        points: design.pose.position.clone(),
+        colours,
+        width: 4.0,
+    });
+    if let Some(t) = design.reach() {
+        scene.crosses.push((t.target, RGBColor(200, 0, 0)));
+    }
+    scene.dots.push((design.pose.position[0], BLACK));
+    let width = 1200u32;
+    let root = png_canvas(
+        path,
+        (width, 1000),
+        &format!(
+            "{title}: design pose (colour: most active group × activation; black: pose at the end)"
+        ),
+        22,
+    )?;
+    let (main, bar) = root.split_horizontally(width - 130);
+    draw_four_views(&main, &scene, 16)?;
+    for (g, name) in crate::scenario::config::MUSCLE_GROUP_NAMES
+        .iter()
+        .enumerate()
+    {
+        let y = 80 + 30 * g as i32;
+        bar.draw(&Rectangle::new(
+            [(10, y), (30, y + 16)],
+            GROUP_COLOURS[g].filled(),
+        ))
+        .map_err(err)?;
+        bar.draw(&Text::new(
+            name.to_string(),
+            (38, y),
+            ("sans-serif", 16).into_font(),
+        ))
+        .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
 /// The colour bar of the centrelines' times [t0, t0 + span] (viridis).
 fn colour_bar(
     bar: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
@@ -430,6 +566,22 @@ impl crate::pipeline::Figures for CliFigures {
             "energy.png",
             energy_png(&out.path("energy.png"), rec, title),
         );
+        if let Some(m) = &data.muscle {
+            let last = rec
+                .shapes
+                .last()
+                .and_then(|(_, rods)| rods.get(m.design().rod));
+            warn(
+                "design.png",
+                design_png(
+                    &out.path("design.png"),
+                    m.design(),
+                    last.map(|v| &v[..]),
+                    data.system.cylinders(),
+                    title,
+                ),
+            );
+        }
     }
 }
 

@@ -11,6 +11,7 @@ pub mod acceptance;
 pub mod build;
 pub mod estimate;
 pub mod initial;
+pub mod muscle_run;
 pub mod outdir;
 pub mod output;
 pub mod pipeline;

@@ -14,6 +14,15 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The compiled-in experiment suites of `octoarm paper`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Suite {
+    /// The CDC-2020 paper's four experiments.
+    Paper,
+    /// The muscular arm's experiments (muscles-3d spec §7).
+    Muscles,
+}
+
 /// Simulate a soft octopus arm (a discrete 3D Cosserat rod) described by a TOML scenario.
 ///
 /// A scenario has the sections [rod] (or [[rod]] for several rods), [time], and optionally
@@ -107,6 +116,11 @@ enum Command {
         /// Run the scenarios of this folder instead of the paper's (every *.toml, by name).
         #[arg(long, value_name = "DIR")]
         scenarios: Option<PathBuf>,
+        /// Which compiled-in experiments: "paper" (the CDC-2020 paper's four, scenarios/paper/)
+        /// or "muscles" (the muscular arm of muscles-3d spec §7, scenarios/muscles/: reach,
+        /// rolled reach, grasp, planar case; 15 s each, designs solved first).
+        #[arg(long, value_enum, default_value_t = Suite::Paper)]
+        suite: Suite,
         /// Refuse if any experiment's outputs would exceed this size before compression (as
         /// for `run`) [default: 2GB].
         #[arg(long, value_name = "SIZE", value_parser = parse_size, allow_negative_numbers = true)]
@@ -351,9 +365,13 @@ fn run(cli: Cli) -> Result<()> {
             duration,
             threads,
             scenarios,
+            suite,
             max_output,
         } => {
-            let scenarios = paper::paper_scenarios(duration, scenarios.as_deref())?;
+            let scenarios = match (suite, scenarios.as_deref()) {
+                (Suite::Muscles, None) => paper::muscle_scenarios(duration)?,
+                (_, dir) => paper::paper_scenarios(duration, dir)?,
+            };
             for scn in &scenarios {
                 octoarm::build::build_system(scn)?;
                 octoarm::estimate::check_output_size(scn, MaxOutput::bytes(max_output))?;

@@ -37,6 +37,42 @@ pub const SCENARIOS: [(&str, &str); 4] = [
     ),
 ];
 
+/// The muscular arm's experiments of muscles-3d spec §7 compiled in (`octoarm paper --suite
+/// muscles`): (file name, text), in the order A (reach), B (rolled reach), C (grasp), and the
+/// planar case.
+pub const MUSCLE_SCENARIOS: [(&str, &str); 4] = [
+    (
+        "reach.toml",
+        include_str!("../../../scenarios/muscles/reach.toml"),
+    ),
+    (
+        "reach-rolled.toml",
+        include_str!("../../../scenarios/muscles/reach-rolled.toml"),
+    ),
+    (
+        "grasp.toml",
+        include_str!("../../../scenarios/muscles/grasp.toml"),
+    ),
+    (
+        "planar.toml",
+        include_str!("../../../scenarios/muscles/planar.toml"),
+    ),
+];
+
+/// The compiled-in muscle experiments (named `scenarios/muscles/<file>`), with the duration
+/// replaced if given.
+pub fn muscle_scenarios(duration: Option<f64>) -> Result<Vec<Scenario>, ScenarioError> {
+    let mut out = Vec::new();
+    for (file, text) in MUSCLE_SCENARIOS {
+        let mut scn = Scenario::from_str(&Path::new("scenarios/muscles").join(file), text)?;
+        if let Some(d) = duration {
+            crate::override_duration(&mut scn, d)?;
+        }
+        out.push(scn);
+    }
+    Ok(out)
+}
+
 /// The scenarios of `dir` (every `*.toml`, sorted by name), or the compiled-in paper scenarios
 /// (named `scenarios/paper/<file>`), with the duration replaced if given.
 pub fn paper_scenarios(
@@ -219,8 +255,18 @@ pub fn run_paper(
                 let result = match result {
                     Ok(run) => {
                         if progress {
-                            let status = match &run.failure {
-                                None => format!(
+                            let status = match (&run.failure, &run.data.muscle) {
+                                (None, Some(m)) => match m.summary {
+                                    Some(s) if s.grasp.is_some() => format!(
+                                        "final wrap angle {:.0}°",
+                                        s.grasp.map_or(f64::NAN, |g| g.wrap_angle)
+                                    ),
+                                    s => format!(
+                                        "final tip error {:.2e} L0",
+                                        s.map_or(f64::NAN, |s| s.final_tip_error)
+                                    ),
+                                },
+                                (None, None) => format!(
                                     "final distance {:.2e}",
                                     run.data
                                         .series
@@ -228,7 +274,7 @@ pub fn run_paper(
                                         .and_then(|s| s.summary.as_ref())
                                         .map_or(f64::NAN, |s| s.final_distance)
                                 ),
-                                Some(f) => format!("FAILED: {f}"),
+                                (Some(f), _) => format!("FAILED: {f}"),
                             };
                             bars.suspend(|| {
                                 eprintln!(
@@ -264,7 +310,9 @@ pub fn run_paper(
         })
         .collect();
 
-    if figures {
+    let muscles =
+        !scenarios.is_empty() && scenarios.iter().all(|s| s.config.muscle_control.is_some());
+    if figures && !muscles {
         let points: Vec<(usize, Vec<(f64, f64)>)> = results
             .iter()
             .enumerate()
@@ -304,7 +352,11 @@ pub fn run_paper(
         threads,
     };
     report.wall_seconds = wall.elapsed().as_secs_f64();
-    let text = report_md(scenarios, &report);
+    let text = if muscles {
+        muscles_report_md(scenarios, &report)
+    } else {
+        report_md(scenarios, &report)
+    };
     let tmp = root.join(".report.md.partial");
     std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
     std::fs::rename(&tmp, root.join("report.md"))
@@ -498,6 +550,162 @@ pub fn report_md(scenarios: &[Scenario], report: &PaperReport) -> String {
          series.npz, distance.csv, shapes.png, shapes.gif, energy.png, summary.json, \
          scenario.toml); `distance.png` beside this file. Each folder's `scenario.toml` re-runs \
          it with `octoarm run`; the claims checked are the scenario files' [[acceptance]] tables."
+    );
+    s
+}
+
+/// `report.md` of the muscle experiments (muscles-3d spec §7): per experiment the design
+/// (outcome, iterations, time, J, errors) and the dynamics (final errors, times to 5 % and 1 %
+/// of L0, deviation from the design pose, 𝓗), then every acceptance check.
+pub fn muscles_report_md(scenarios: &[Scenario], report: &PaperReport) -> String {
+    let mut s = String::new();
+    let first = scenarios.first().map(|x| &x.config);
+    let _ = writeln!(s, "# The muscular arm's experiments (muscles-3d spec §7)\n");
+    let _ = writeln!(
+        s,
+        "`octoarm paper --suite muscles` (octoarm {}): COOMM's arm, N = {}, dt = {:e} s, {} s per run; \
+         {} experiments on {} worker threads, {:.1} s wall in total (designs and figures included).\n",
+        env!("CARGO_PKG_VERSION"),
+        first.map_or(0, |c| c.rods.list[0].n_elements),
+        first.map_or(0.0, |c| c.time.dt),
+        first.map_or(0.0, |c| c.time.duration),
+        report.results.len(),
+        report.threads,
+        report.wall_seconds
+    );
+    let _ = writeln!(
+        s,
+        "Errors are normalised by L0 (tip point: the last element's midpoint; θ_Q = |Log(Q Q*ᵀ)|). \
+         Design: projected L-BFGS over a ∈ [0, 1] from a = 0 (grasp: the continuation of spec §5.6). \
+         Dynamics: the design's activations with a 1 s ramp at 500 Hz, drag and `coomm` damping. \
+         𝓗 = kinetic + elastic + the fibres' stored energy; its largest rise is between 10 ms samples after the ramp.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| experiment | design (outcome, iterations, evaluations) | design time [s] | J | design tip error / L0 | design θ_Q [rad] | final tip error / L0 | final θ_Q [rad] | t(0.05 L0) [s] | t(0.01 L0) [s] | max node deviation / L0 | largest 𝓗 rise [J] | wall [s] | acceptance |"
+    );
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    let opt = |t: Option<f64>| t.map_or("—".to_string(), |t| format!("{t:.2}"));
+    let mut twists: Vec<(String, f64)> = Vec::new();
+    for (i, (name, r)) in report.results.iter().enumerate() {
+        let label = format!("{} {name}", letter(i));
+        match r {
+            PaperResult::Ran(run) => {
+                let Some(m) = &run.data.muscle else {
+                    let _ = writeln!(s, "| {label} | not a muscle run | | | | | | | | | | | | |");
+                    continue;
+                };
+                let d = m.design();
+                twists.push((name.clone(), d.twist));
+                let c = &d.report.costs;
+                let sm = m.summary.unwrap_or_default();
+                let decided: Vec<bool> = m.checks.iter().filter_map(|c| c.pass).collect();
+                let passed = decided.iter().filter(|p| **p).count();
+                let mut verdict = if passed == decided.len() {
+                    format!("pass ({passed}/{})", m.checks.len())
+                } else {
+                    format!(
+                        "**{} failed** ({passed}/{} pass)",
+                        decided.len() - passed,
+                        m.checks.len()
+                    )
+                };
+                if let Some(f) = &run.failure {
+                    verdict = format!("**run failed**: {}", f.to_string().replace('|', "/"));
+                }
+                let _ = writeln!(
+                    s,
+                    "| {label} | {:?}, {}, {} | {:.2} | {:.4} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {} | {} | {:.2e} | {:.2e} | {:.1} | {verdict} |",
+                    d.report.outcome,
+                    d.report.iterations,
+                    d.report.evaluations,
+                    d.report.seconds,
+                    c.total,
+                    c.tip_error / d.length,
+                    c.orientation_error,
+                    sm.final_tip_error,
+                    sm.final_orientation_error,
+                    opt(sm.time_to_5_percent),
+                    opt(sm.time_to_1_percent),
+                    sm.node_deviation,
+                    sm.hamiltonian_rise,
+                    run.wall_seconds,
+                );
+            }
+            PaperResult::Error(e) => {
+                let _ = writeln!(
+                    s,
+                    "| {label} | error: {} | | | | | | | | | | | | fail |",
+                    e.replace('|', "/")
+                );
+            }
+        }
+    }
+    let _ = writeln!(s, "\n## Acceptance (muscles-3d spec §7)\n");
+    let _ = writeln!(s, "| experiment | claim | measured | result |");
+    let _ = writeln!(s, "|---|---|---|---|");
+    for (i, (name, r)) in report.results.iter().enumerate() {
+        if let PaperResult::Ran(run) = r {
+            if let Some(m) = &run.data.muscle {
+                for c in &m.checks {
+                    let verdict = match c.pass {
+                        Some(true) => "pass",
+                        Some(false) => "**fail**",
+                        None => "undecided",
+                    };
+                    let note = c
+                        .note
+                        .as_ref()
+                        .map(|n| format!(" ({n})"))
+                        .unwrap_or_default();
+                    let _ = writeln!(
+                        s,
+                        "| {} {name} | {}{note} | {} | {verdict} |",
+                        letter(i),
+                        c.claim,
+                        c.measured
+                    );
+                }
+            }
+            if run.failure.is_some() {
+                let _ = writeln!(
+                    s,
+                    "| {} {name} | no guard trip, run complete | {} | **fail** |",
+                    letter(i),
+                    run.failure
+                        .as_ref()
+                        .map(|f| f.to_string().replace('|', "/"))
+                        .unwrap_or_default()
+                );
+            } else {
+                let _ = writeln!(
+                    s,
+                    "| {} {name} | no guard trip, run complete | completed | pass |",
+                    letter(i)
+                );
+            }
+        }
+    }
+    // Spec §7 B: the rolled reach's twist differs from the reach's by at least 1 rad.
+    let find = |n: &str| twists.iter().find(|(x, _)| x == n).map(|(_, t)| *t);
+    if let (Some(a), Some(b)) = (find("reach"), find("reach-rolled")) {
+        let d = (b - a).abs();
+        let _ = writeln!(
+            s,
+            "| B reach-rolled | total twist differs from A's by ≥ 1 rad | {b:.3} vs {a:.3} rad (difference {d:.3}) | {} |",
+            if d >= 1.0 { "pass" } else { "**fail**" }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nFolders: one per experiment, named after its scenario file: design.json (the design report), \
+         activations.npy [7, N] (groups TM, LM0–LM3, OM+, OM−), design_pose.npz, trajectory.npz, series.npz \
+         (time, tip, tip_error, orientation_error, hamiltonian every 10 ms; grasp: penetration, wrap_angle, mean_gap), \
+         design.png (the design pose in three projections and a perspective view, coloured by activation), \
+         shapes.png, energy.png, summary.json, scenario.toml (re-run with `octoarm run`)."
     );
     s
 }

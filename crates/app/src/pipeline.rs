@@ -67,16 +67,28 @@ pub struct Prepared {
     pub state: SystemState,
     /// The controllers (offline designs already solved).
     pub controllers: Vec<Box<dyn Controller>>,
+    /// The muscle design of a `[muscle_control]` run (its controller is in `controllers`).
+    pub muscle: Option<Box<crate::muscle_run::MuscleDesignRun>>,
 }
 
 /// Build everything a run needs; any problem is a scenario error (nothing written yet).
 pub fn prepare(scn: &Scenario) -> Result<Prepared, ScenarioError> {
     let (system, state) = build::build_system(scn)?;
+    if scn.config.muscle_control.is_some() {
+        let (c, design) = crate::muscle_run::design(scn, &system, &state)?;
+        return Ok(Prepared {
+            system,
+            state,
+            controllers: vec![Box::new(c)],
+            muscle: Some(Box::new(design)),
+        });
+    }
     let controllers = build::build_controllers(scn, &system, &state)?;
     Ok(Prepared {
         system,
         state,
         controllers,
+        muscle: None,
     })
 }
 
@@ -127,6 +139,8 @@ pub struct RunData {
     pub trajectory: TrajectoryRecorder,
     /// The control series (controlled runs).
     pub series: Option<SeriesRecorder>,
+    /// The muscle run's series, design and checks (`[muscle_control]` runs).
+    pub muscle: Option<crate::muscle_run::MuscleRecorder>,
     /// The rods' models and ends, for drawing.
     pub system: RodSystem,
 }
@@ -183,6 +197,7 @@ pub fn run_with(
         system,
         mut state,
         mut controllers,
+        muscle,
     } = prepared;
     let dt = system.settings().dt;
     let n_steps = cfg.n_steps();
@@ -234,6 +249,18 @@ pub fn run_with(
     if let Some(s) = &mut series {
         s.spool_into(&out, frames_of(n_steps, s.every()) as usize)?;
     }
+    let mut muscle = muscle.map(|d| {
+        let mc = cfg
+            .muscle_control
+            .as_ref()
+            .expect("a muscle design comes from [muscle_control]");
+        crate::muscle_run::MuscleRecorder::new(
+            steps_of(mc.series_interval, dt),
+            *d,
+            &system,
+            cfg.acceptance.clone(),
+        )
+    });
     let control_every: Vec<u64> = controllers
         .iter()
         .map(|c| steps_of(c.period(), dt))
@@ -270,7 +297,8 @@ pub fn run_with(
         let due_traj = k % trajectory.every() == 0 || last;
         let due_series = series.as_ref().is_some_and(|s| k % s.every() == 0 || last);
         let due_extra = !extra.is_empty() && extra.iter().any(|r| k % r.every() == 0 || last);
-        if due_traj || due_series || due_extra {
+        let due_muscle = muscle.as_ref().is_some_and(|r| k % r.every() == 0 || last);
+        if due_traj || due_series || due_extra || due_muscle {
             if k == 0 || global % guard_every != 0 {
                 if let Err(e) = step::check(&system, &state, &mut ws) {
                     failure = Some(Failure::Unstable(e));
@@ -296,6 +324,11 @@ pub fn run_with(
             if due_series {
                 if let Some(s) = &mut series {
                     s.record(&mut m)?;
+                }
+            }
+            if due_muscle {
+                if let Some(r) = &mut muscle {
+                    r.record(&mut m)?;
                 }
             }
             if due_extra {
@@ -360,6 +393,12 @@ pub fn run_with(
                 .with_context(|| format!("writing the series of {}", target.display()))?,
         );
     }
+    if let Some(r) = &mut muscle {
+        summary.extend(
+            r.finish(&out, &info)
+                .with_context(|| format!("writing the muscle series of {}", target.display()))?,
+        );
+    }
     for r in extra.iter_mut() {
         summary.extend(r.finish(&out, &info)?);
     }
@@ -368,6 +407,7 @@ pub fn run_with(
     let data = RunData {
         trajectory,
         series,
+        muscle,
         system,
     };
     if let Some(fig) = opts.figures {

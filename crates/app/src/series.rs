@@ -701,6 +701,7 @@ mod tests {
                 from,
                 to,
                 segment: (quantity == AcceptanceQuantity::SettlingTime).then_some(1),
+                group: None,
                 min: None,
                 max: Some(0.3),
                 note: None,

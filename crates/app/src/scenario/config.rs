@@ -67,6 +67,138 @@ pub struct ScenarioConfig {
     /// in `summary.json` (and by `octoarm paper` in `report.md`).
     #[serde(default, rename = "acceptance", skip_serializing_if = "Vec::is_empty")]
     pub acceptance: Vec<AcceptanceConfig>,
+    /// `[muscles]`: COOMM's muscles on a rod and the water around it (muscles-3d spec §1–3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub muscles: Option<MusclesConfig>,
+    /// `[muscle_control]`: a design over activations solved before t = 0 and held with COOMM's
+    /// ramp (muscles-3d spec §5–6); needs `[muscles]`, excludes `[controller]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub muscle_control: Option<MuscleControlConfig>,
+}
+
+/// The muscle table of `[muscles]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MuscleTableKind {
+    /// COOMM's seven groups, thirteen fibres (spec §1.2).
+    Coomm,
+}
+
+/// The rod damping of `[muscles]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MuscleDampingKind {
+    /// COOMM's per-DOF rates (spec §3.2), replacing `[damping]` on this rod.
+    Coomm,
+    /// The `[damping]` section applies.
+    Scenario,
+}
+
+/// `[muscles]`: muscles on one rod, its water and damping (muscles-3d spec §1–3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MusclesConfig {
+    /// The rod with muscles; default the only rod.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rod: Option<String>,
+    /// The muscle table; default "coomm".
+    #[serde(default = "default_muscle_table")]
+    pub table: MuscleTableKind,
+    /// Morison drag with COOMM's coefficients (spec §3.1); default true.
+    #[serde(default = "default_true")]
+    pub drag: bool,
+    /// "coomm" (default: COOMM's rates, spec §3.2) or "scenario" (`[damping]`).
+    #[serde(default = "default_muscle_damping")]
+    pub damping: MuscleDampingKind,
+    /// Net weight in water, (ρ − ρ_w) g Â l̂ per element along −e_z with ρ_w = 1022 kg/m³ and
+    /// g = 9.81 m/s² (spec §3.3); default false (COOMM has none).
+    #[serde(default)]
+    pub net_weight: bool,
+}
+
+/// What `[muscle_control]` designs for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MuscleTaskKind {
+    /// Reach a tip point (and frame): spec §7 A, B.
+    Reach,
+    /// Wrap the distal arm around `[[cylinder]]` 0: spec §7 C.
+    Grasp,
+}
+
+/// The target tip frame of a reach.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TipFrameKind {
+    /// Point only (μ_Q = 0).
+    None,
+    /// COOMM's frame from the base and initial tip directions (spec §7 A).
+    Coomm,
+    /// COOMM's frame rolled by +90° about d*₃ (spec §7 B).
+    CoommRolled,
+}
+
+/// `[muscle_control]`: the design over activations and the controller holding it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MuscleControlConfig {
+    /// "reach" (default) or "grasp".
+    #[serde(default = "default_muscle_task")]
+    pub task: MuscleTaskKind,
+    /// Reach: the tip point p* [m].
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "strict::opt_vec3"
+    )]
+    pub target: Option<Vec3>,
+    /// Reach: instead of `target`, a reachable target pose drawn from this seed: the tip point
+    /// and tip frame (weights ω = (1, 1, 1)) of the static equilibrium under random activations
+    /// (per group, with probability ½ a linear profile a(s) between two U(0, 1) end values,
+    /// else zero); for the 1000-target sweep. Excludes `target` and `frame`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_seed: Option<u64>,
+    /// Reach: the tip frame; default "coomm".
+    #[serde(default = "default_tip_frame")]
+    pub frame: TipFrameKind,
+    /// Stop the design as soon as spec §7 A's bounds hold (tip error ≤ 1.5e-4 L0, θ_Q ≤ 1e-3
+    /// rad) instead of at convergence; default false (the sweep sets it).
+    #[serde(default)]
+    pub stop_at_bounds: bool,
+    /// μ_p [N/m], ≥ 0; default 1e6.
+    #[serde(default = "default_mu_p")]
+    pub position_weight: f64,
+    /// μ_Q [N m], ≥ 0; default 1e3.
+    #[serde(default = "default_mu_q")]
+    pub orientation_weight: f64,
+    /// Grasp: attraction weight μ_g [N/m²], ≥ 0; default 1e6.
+    #[serde(default = "default_mu_p")]
+    pub attraction_weight: f64,
+    /// Grasp: obstacle weight μ_o [N/m²], ≥ 0; default 1e7.
+    #[serde(default = "default_mu_o")]
+    pub obstacle_weight: f64,
+    /// Grasp: sucker-side weight μ_s [N], ≥ 0; default 1e3.
+    #[serde(default = "default_mu_q")]
+    pub sucker_weight: f64,
+    /// Grasp: continuation stages (weights × 10^(k − stages + 1)), in [1, 10]; default 4.
+    #[serde(default = "default_grasp_stages")]
+    pub stages: usize,
+    /// Groups the design may use (others held at 0): names of "tm", "lm0".."lm3", "om_plus",
+    /// "om_minus"; default all seven.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub groups: Option<Vec<String>>,
+    /// L-BFGS iterations (per grasp stage), in [1, 100000]; default 2000.
+    #[serde(default = "default_design_iterations")]
+    pub max_iterations: usize,
+    /// Ramp of the activations [s], ≥ 0; default 1 (COOMM).
+    #[serde(default = "default_one")]
+    pub ramp: f64,
+    /// Controller update interval [s], ≥ dt; default 2e-3 (500 Hz, COOMM).
+    #[serde(default = "default_muscle_update")]
+    pub update_interval: f64,
+    /// Interval of `series.npz` samples [s], ≥ dt; default 1e-2.
+    #[serde(default = "default_muscle_series")]
+    pub series_interval: f64,
 }
 
 /// The rods of a scenario: a single `[rod]` table or an array `[[rod]]` of tables; written back
@@ -857,6 +989,70 @@ pub enum AcceptanceQuantity {
     MaxPenetration,
     /// Largest design tip error / L0 of the online updates at or after `time`.
     DesignTipError,
+    /// Muscle design: tip-point error / L0.
+    MuscleDesignTipError,
+    /// Muscle design: θ_Q [rad].
+    MuscleDesignOrientationError,
+    /// Muscle design: J.
+    MuscleDesignCost,
+    /// Muscle design: scaled equilibrium residual ρ_R.
+    MuscleDesignResidual,
+    /// Muscle design: max_k D̂_k |κ_k| [rad].
+    MuscleDesignMaxTurn,
+    /// Muscle design: ∫ a ds / L0 of `group`.
+    MuscleGroupIntegral,
+    /// Muscle design: ∫ (a_OM+ + a_OM−) ds / L0.
+    MuscleObliqueIntegral,
+    /// Muscle design: activations outside [0, 1] (count).
+    MuscleActivationViolations,
+    /// Muscle design: total twist Σ D̂ κ₃ [rad].
+    MuscleDesignTwist,
+    /// Muscle design (grasp): wrap angle [deg].
+    MuscleDesignWrapAngle,
+    /// Muscle design (grasp): penetration max(−ζ) [m].
+    MuscleDesignPenetration,
+    /// Muscle design (grasp): mean |ζ| [m].
+    MuscleDesignMeanGap,
+    /// Muscle design (grasp): max |ζ| [m].
+    MuscleDesignMaxGap,
+    /// Muscle design (grasp): sucker alignment ᾱ.
+    MuscleDesignSuckerAlignment,
+    /// Muscle run: tip-point error / L0 at `time`.
+    TipErrorAt,
+    /// Muscle run: θ_Q [rad] at `time`.
+    OrientationErrorAt,
+    /// Muscle run: largest rise of the tip error / L0 sampled every 0.5 s from `time` on.
+    TipErrorRise,
+    /// Muscle run: max over nodes |x_i(T) − x_i^design| / L0 at the end, if the run reached `time`.
+    NodeDeviation,
+    /// Muscle run: largest 𝓗 rise between samples from `time` on / (𝓗(time) − 𝓗(T)).
+    HamiltonianRise,
+    /// Muscle run: 𝓗(T) − 𝓗(time) [J].
+    HamiltonianChange,
+    /// Muscle run (grasp): largest penetration max(−ζ) over every sample up to `time` [m].
+    GraspPenetration,
+    /// Muscle run (grasp): wrap angle at the end, if the run reached `time` [deg].
+    GraspWrapAngle,
+    /// Muscle run (grasp): mean |ζ| at the end, if the run reached `time` [m].
+    GraspMeanGap,
+}
+
+impl AcceptanceQuantity {
+    /// Whether the quantity is about a `[muscle_control]` run.
+    pub fn is_muscle(self) -> bool {
+        use AcceptanceQuantity as Q;
+        !matches!(
+            self,
+            Q::DistanceBefore
+                | Q::DistanceAfter
+                | Q::DistanceAt
+                | Q::MaxDistance
+                | Q::DistanceRise
+                | Q::SettlingTime
+                | Q::MaxPenetration
+                | Q::DesignTipError
+        )
+    }
 }
 
 /// `[[acceptance]]`: a claim `min ≤ quantity ≤ max`, reported pass / fail / undecided (the
@@ -889,7 +1085,47 @@ pub struct AcceptanceConfig {
     /// A remark shown beside the verdict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// The muscle group of `muscle_group_integral` ("tm", "lm0".."lm3", "om_plus", "om_minus").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<String>,
 }
+
+fn default_muscle_table() -> MuscleTableKind {
+    MuscleTableKind::Coomm
+}
+fn default_muscle_damping() -> MuscleDampingKind {
+    MuscleDampingKind::Coomm
+}
+fn default_muscle_task() -> MuscleTaskKind {
+    MuscleTaskKind::Reach
+}
+fn default_tip_frame() -> TipFrameKind {
+    TipFrameKind::Coomm
+}
+fn default_mu_p() -> f64 {
+    1.0e6
+}
+fn default_mu_q() -> f64 {
+    1.0e3
+}
+fn default_mu_o() -> f64 {
+    1.0e7
+}
+fn default_design_iterations() -> usize {
+    2000
+}
+fn default_one() -> f64 {
+    1.0
+}
+fn default_muscle_update() -> f64 {
+    2.0e-3
+}
+fn default_muscle_series() -> f64 {
+    1.0e-2
+}
+
+/// The group names of `[muscle_control].groups` and `acceptance.group`, in group order.
+pub const MUSCLE_GROUP_NAMES: [&str; 7] = ["tm", "lm0", "lm1", "lm2", "lm3", "om_plus", "om_minus"];
 
 pub(crate) fn default_shear_coefficient() -> f64 {
     27.0 / 28.0

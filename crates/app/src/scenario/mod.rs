@@ -227,6 +227,11 @@ impl ScenarioConfig {
                 c.rod = self.rods.list[0].name.clone();
             }
         }
+        if let Some(m) = &mut self.muscles {
+            if m.rod.is_none() && single {
+                m.rod = self.rods.list[0].name.clone();
+            }
+        }
         let dt = self.time.dt;
         if let Some(sv) = &mut self.solver {
             match sv.rule {

@@ -480,6 +480,7 @@ impl ScenarioConfig {
                 finite("initial_state.time", t)?;
             }
         }
+        self.validate_muscles()?;
         self.validate_control()
     }
 
@@ -734,11 +735,32 @@ impl ScenarioConfig {
             if self.grasp.is_some() {
                 return Err(needs("grasp"));
             }
-            if !self.acceptance.is_empty() {
+            if !self.acceptance.is_empty() && self.muscle_control.is_none() {
                 return Err(needs("acceptance"));
+            }
+            for (i, a) in self.acceptance.iter().enumerate() {
+                if !a.quantity.is_muscle() {
+                    return Err(rule(
+                        &format!("acceptance[{i}].quantity"),
+                        "is a quantity of [controller] runs, not of [muscle_control] runs",
+                    ));
+                }
+                validate_acceptance(i, a)?;
             }
             return Ok(());
         };
+        if self.muscle_control.is_some() {
+            return Err(rule(
+                "muscle_control",
+                "[muscle_control] and [controller] exclude each other: a rod has one controller",
+            ));
+        }
+        if let Some(i) = self.acceptance.iter().position(|a| a.quantity.is_muscle()) {
+            return Err(rule(
+                &format!("acceptance[{i}].quantity"),
+                "is a quantity of [muscle_control] runs, not of [controller] runs",
+            ));
+        }
         let t = &self.time;
         if !(ctrl.series_interval.is_finite() && ctrl.series_interval >= t.dt * (1.0 - 1e-9)) {
             return Err(bad(
@@ -888,6 +910,143 @@ impl ScenarioConfig {
 }
 
 impl ScenarioConfig {
+    /// `[muscles]` and `[muscle_control]`: in range, on a rod clamped at its base and free at
+    /// its tip.
+    fn validate_muscles(&self) -> Result<(), Invalid> {
+        let Some(m) = &self.muscles else {
+            if self.muscle_control.is_some() {
+                return Err(rule(
+                    "muscle_control",
+                    "needs [muscles] (the rod's muscles); add it or remove this section",
+                ));
+            }
+            return Ok(());
+        };
+        let r = self.find_rod("muscles.rod", m.rod.as_deref())?;
+        let rod = &self.rods.list[r];
+        if rod.base.kind() != EndKind::Clamped || rod.tip.kind() != EndKind::Free {
+            return Err(rule(
+                "muscles.rod",
+                format!(
+                    "the muscular arm must be clamped at its base and free at its tip (rod \"{}\" is {:?} / {:?})",
+                    rod.name.as_deref().unwrap_or(""),
+                    rod.base.kind(),
+                    rod.tip.kind()
+                ),
+            ));
+        }
+        if rod.rest_schedule.is_some()
+            || rod.rest_kappa.is_some()
+            || rod.rest_sigma.is_some()
+            || rod.rest_curvature != [0.0; 3]
+        {
+            return Err(rule(
+                "muscles.rod",
+                "the muscular arm is straight at rest (spec §1.1): remove its rest strains",
+            ));
+        }
+        let Some(c) = &self.muscle_control else {
+            return Ok(());
+        };
+        let dt = self.time.dt;
+        for (key, v) in [
+            ("muscle_control.update_interval", c.update_interval),
+            ("muscle_control.series_interval", c.series_interval),
+        ] {
+            if !(v.is_finite() && v >= dt * (1.0 - 1e-9)) {
+                return Err(bad(
+                    key,
+                    v,
+                    format!("[time.dt = {}, inf), finite", fmt_sci(dt)),
+                ));
+            }
+        }
+        non_negative("muscle_control.ramp", c.ramp)?;
+        for (key, v) in [
+            ("muscle_control.position_weight", c.position_weight),
+            ("muscle_control.orientation_weight", c.orientation_weight),
+            ("muscle_control.attraction_weight", c.attraction_weight),
+            ("muscle_control.obstacle_weight", c.obstacle_weight),
+            ("muscle_control.sucker_weight", c.sucker_weight),
+        ] {
+            non_negative(key, v)?;
+        }
+        count(
+            "muscle_control.max_iterations",
+            c.max_iterations,
+            1,
+            100_000,
+        )?;
+        count("muscle_control.stages", c.stages, 1, 10)?;
+        if let Some(groups) = &c.groups {
+            for (i, g) in groups.iter().enumerate() {
+                if !super::config::MUSCLE_GROUP_NAMES.contains(&g.as_str()) {
+                    return Err(rule(
+                        &format!("muscle_control.groups[{i}]"),
+                        format!(
+                            "\"{g}\" is not a group; the groups are {}",
+                            super::config::MUSCLE_GROUP_NAMES.join(", ")
+                        ),
+                    ));
+                }
+            }
+        }
+        match c.task {
+            super::config::MuscleTaskKind::Reach => match (c.target, c.target_seed) {
+                (Some(t), None) => finite_vec("muscle_control.target", t)?,
+                (None, Some(_)) => {}
+                (None, None) => {
+                    return Err(rule(
+                        "muscle_control.target",
+                        "missing: a reach needs the tip point [x, y, z] in m (or target_seed)",
+                    ))
+                }
+                (Some(_), Some(_)) => {
+                    return Err(rule(
+                        "muscle_control.target_seed",
+                        "give either target or target_seed, not both",
+                    ))
+                }
+            },
+            super::config::MuscleTaskKind::Grasp => {
+                if self.cylinders.is_empty() {
+                    return Err(rule(
+                        "muscle_control.task",
+                        "a grasp needs the object as [[cylinder]] (the first one is grasped)",
+                    ));
+                }
+                if c.target.is_some() || c.target_seed.is_some() {
+                    return Err(rule(
+                        "muscle_control.target",
+                        "a grasp has no tip target; remove target / target_seed",
+                    ));
+                }
+            }
+        }
+        for (i, a) in self.acceptance.iter().enumerate() {
+            if a.quantity == AcceptanceQuantity::MuscleGroupIntegral {
+                match &a.group {
+                    Some(g) if super::config::MUSCLE_GROUP_NAMES.contains(&g.as_str()) => {}
+                    _ => {
+                        return Err(rule(
+                            &format!("acceptance[{i}].group"),
+                            format!(
+                                "muscle_group_integral needs group = one of {}",
+                                super::config::MUSCLE_GROUP_NAMES.join(", ")
+                            ),
+                        ))
+                    }
+                }
+            } else if a.group.is_some() {
+                return Err(rule(
+                    &format!("acceptance[{i}].group"),
+                    "is not a key of this quantity",
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The solver's memory and work against their bounds (`MAX_LBFGS_BYTES`, `MAX_UPDATE_WORK`,
     /// `MAX_OFFLINE_WORK`): no setting may make the controller allocate gigabytes or compute
     /// for hours without the run showing progress.
@@ -1186,7 +1345,19 @@ fn validate_acceptance(i: usize, a: &AcceptanceConfig) -> Result<(), Invalid> {
     use AcceptanceQuantity as Q;
     let needs_time = matches!(
         a.quantity,
-        Q::DistanceBefore | Q::DistanceAfter | Q::DistanceAt | Q::DesignTipError
+        Q::DistanceBefore
+            | Q::DistanceAfter
+            | Q::DistanceAt
+            | Q::DesignTipError
+            | Q::TipErrorAt
+            | Q::OrientationErrorAt
+            | Q::TipErrorRise
+            | Q::HamiltonianRise
+            | Q::HamiltonianChange
+            | Q::NodeDeviation
+            | Q::GraspPenetration
+            | Q::GraspWrapAngle
+            | Q::GraspMeanGap
     );
     match (needs_time, a.time) {
         (true, None) => return Err(rule(&k("time"), "missing: this quantity is about a time")),

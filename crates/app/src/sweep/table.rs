@@ -52,8 +52,29 @@ pub fn result_columns(plan: &SweepPlan) -> Vec<String> {
     if cfg.controller.is_some() {
         out.extend(CONTROL_RESULTS.iter().map(|c| c.0.to_string()));
     }
+    if cfg.muscle_control.is_some() {
+        out.extend(MUSCLE_RESULTS.iter().map(|c| c.0.to_string()));
+    }
     out
 }
+
+/// Muscle-run results (`[muscle_control]`): column and path in `summary.json`'s `muscles`.
+const MUSCLE_RESULTS: [(&str, &[&str]); 14] = [
+    ("design_seconds", &["design", "seconds"]),
+    ("design_iterations", &["design", "iterations"]),
+    ("design_evaluations", &["design", "evaluations"]),
+    ("design_cost", &["design", "cost"]),
+    ("design_tip_error_l0", &["design", "tip_error_l0"]),
+    ("design_orientation_error", &["design", "orientation_error"]),
+    ("design_residual", &["design", "residual"]),
+    ("target_x", &["design", "target", "0"]),
+    ("target_y", &["design", "target", "1"]),
+    ("target_z", &["design", "target", "2"]),
+    ("final_tip_error_l0", &["final_tip_error_l0"]),
+    ("final_orientation_error", &["final_orientation_error"]),
+    ("node_deviation_l0", &["node_deviation_l0"]),
+    ("hamiltonian_largest_rise", &["hamiltonian_largest_rise"]),
+];
 
 /// Per-rod results: column and path in the rod's entry of `summary.json`'s `rods`.
 const ROD_RESULTS: [(&str, &[&str]); 8] = [
@@ -121,6 +142,12 @@ pub fn results_of(plan: &SweepPlan, summary: &Value) -> (String, Vec<f64>, Strin
         let control = summary.get("control");
         for (_, path) in CONTROL_RESULTS {
             out.push(number(control.and_then(|c| lookup(c, path))));
+        }
+    }
+    if cfg.muscle_control.is_some() {
+        let m = summary.get("muscles");
+        for (_, path) in MUSCLE_RESULTS {
+            out.push(number(m.and_then(|c| lookup(c, path))));
         }
     }
     let status = summary
