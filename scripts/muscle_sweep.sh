@@ -18,7 +18,7 @@ threads=${3:-1}
 count=${4:-1000}
 cargo build --release -p octoarm
 sweep=$(mktemp -d)/muscle_targets.toml
-sed -e "s#^scenario = .*#scenario = \"$PWD/scenarios/sweeps/muscle-targets-base.toml\"#" \
+sed -e "s#^scenario = .*#scenario = \"$PWD/scenarios/muscles/target-sweep-base.toml\"#" \
     -e "s#stop = 999, num = 1000#stop = $((count - 1)), num = $count#" \
     scenarios/sweeps/muscle_targets.toml > "$sweep"
 resume=()
