@@ -87,7 +87,7 @@ def _register() -> None:
             id="octoarm/ArmReachGoal-v1",
             entry_point="octoarm.env:ArmReachGoalEnv",
             max_episode_steps=V1_EPISODE_STEPS,
-            kwargs={"control_period": V1_TASK["control_period"]},
+            kwargs={k: V1_TASK[k] for k in ("control_period", "targets", "damping_rate")},
         )
 
 
