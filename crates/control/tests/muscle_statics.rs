@@ -3,12 +3,15 @@
 //!
 //! Independent references: the closed forms of spec §8 (uniform rod; LM: uniform curvature and
 //! shortening; TM: pure elongation; an OM group: the continuum helix, which the discrete one
-//! matches to the chord error); a dense finite-difference Jacobian (the band and the colouring);
+//! matches to the chord error); a dense finite-difference Jacobian (the band and the colouring),
+//! and the coloured one as the oracle of the analytic Jacobian; pure Newton for the chord steps;
 //! COOMM's Picard iteration (a different algorithm with the same fixed point); and the dynamic
 //! arm relaxed under the same activations (statics = dynamics, §8.5).
 //!
 //! How a wrong implementation fails: a wrong residual (1/e or 1/ε³ missing, a sign) moves the
 //! closed-form numbers; a colouring that overlaps bands corrupts the Jacobian (dense comparison);
+//! a missing chain-rule term of the analytic Jacobian (the 1/e area, the current radius, the
+//! current Voronoi length, f_ℓ′) shows as an entry off by far more than 1e-6;
 //! a forward map with the wrong rotation sign or frame order moves the tip; a statics that is not
 //! the stepper's equilibrium leaves the relaxed dynamic arm elsewhere.
 
@@ -392,8 +395,18 @@ fn newton_picard_and_warm_start_agree() {
         );
     }
     let b: Vec<f64> = a.iter().map(|v| (v * 1.02).min(1.0)).collect();
+    let mut pure = st.clone();
     let warm = st.solve(&b, None).unwrap();
     assert!(warm.newton_iterations <= 4, "{warm:?}");
+    // Chord steps (the factors of the last Newton iteration reused) reach the equilibrium that
+    // pure Newton (no chord) reaches from the same warm start.
+    assert!(warm.chord_iterations > 0, "{warm:?}");
+    pure.config.max_chord = 0;
+    let p = pure.solve(&b, None).unwrap();
+    assert_eq!(p.chord_iterations, 0);
+    for (x, y) in st.solution().iter().zip(pure.solution()) {
+        assert!((x - y).abs() < 1e-10 * (1.0 + y.abs()), "{x} vs {y}");
+    }
     // Bad activations are refused with the entry named.
     let mut bad = a.clone();
     bad[3 * n + 7] = 1.5;
