@@ -11,9 +11,7 @@
 //! as its test oracle and as an option (`JacobianKind::FiniteDifference`).
 
 use crate::banded::BandMatrix;
-use octoarm_physics::math::{
-    add, cross, exp_neg_skew, mat_mul, mat_t_vec, mat_vec, norm, scale, sub,
-};
+use octoarm_physics::math::{add, cross, dot, exp_neg_skew, mat_mul, mat_t_vec, norm, scale, sub};
 use octoarm_physics::muscles::{FibreKind, MuscleScratch, Resultants, Strains};
 use octoarm_physics::{Mat3, MuscleModel, RodModel, RodState, Vec3, N_GROUPS};
 
@@ -128,6 +126,8 @@ pub struct MuscleStatics {
     // Per element, summed over fibres: ∂n_j/∂e_i and ∂c_j/∂e_i, i = j − 1, j, j + 1.
     grad_e: Vec<[Vec3; 6]>,
     unit_nu: Vec<Vec3>,
+    root_inv_e: Vec<(f64, f64)>,
+    inv_de: Vec<f64>,
     fib_x: Vec<Vec3>,
     fib_dx: Vec<Vec3>,
     fib_xbar: Vec<Vec3>,
@@ -181,6 +181,8 @@ impl MuscleStatics {
             w: vec![0.0; m],
             blocks: vec![[[[0.0; 3]; 3]; 10]; n],
             grad_e: vec![[[0.0; 3]; 6]; n],
+            root_inv_e: vec![(1.0, 1.0); n],
+            inv_de: vec![1.0; n - 1],
             unit_nu: vec![[0.0; 3]; n],
             fib_x: vec![[0.0; 3]; n],
             fib_dx: vec![[0.0; 3]; n],
@@ -404,11 +406,19 @@ impl MuscleStatics {
             *g = [[0.0; 3]; 6];
         }
         // de_j/dν_j = ν_j/e_j.
+        // e^(−1/2) and 1/e per element, shared by all fibres (square roots and divisions are
+        // most of this function's cost).
         let te: &mut Vec<Vec3> = &mut self.unit_nu;
         for j in 0..n {
             let v = Self::nu(w, j);
             let e = self.dil[j];
-            te[j] = [v[0] / e, v[1] / e, v[2] / e];
+            let inv_e = 1.0 / e;
+            te[j] = [v[0] * inv_e, v[1] * inv_e, v[2] * inv_e];
+            self.root_inv_e[j] = (1.0 / e.sqrt(), inv_e);
+        }
+        // 1/(D̂_k ε_k) per Voronoi point.
+        for k in 0..nk {
+            self.inv_de[k] = 1.0 / (0.5 * (lr[k] * self.dil[k] + lr[k + 1] * self.dil[k + 1]));
         }
         for m in &self.muscles.members {
             let act = &a[m.group * n..(m.group + 1) * n];
@@ -420,10 +430,9 @@ impl MuscleStatics {
             let x = &mut self.fib_x;
             let dx = &mut self.fib_dx;
             for j in 0..n {
-                let e = self.dil[j];
-                let root = 1.0 / e.sqrt();
+                let (root, inv_e) = self.root_inv_e[j];
                 x[j] = [m.offset[0][j] * root, m.offset[1][j] * root, 0.0];
-                dx[j] = [-0.5 * x[j][0] / e, -0.5 * x[j][1] / e, 0.0];
+                dx[j] = [-0.5 * x[j][0] * inv_e, -0.5 * x[j][1] * inv_e, 0.0];
             }
             // Per Voronoi point: x̄, q and ∂q/∂e_k, ∂q/∂e_{k+1}.
             let (xb, q, dqa, dqb) = (
@@ -434,8 +443,7 @@ impl MuscleStatics {
             );
             for k in 0..nk {
                 let kap = [self.kappa[0][k], self.kappa[1][k], self.kappa[2][k]];
-                let inv = 1.0 / (0.5 * (lr[k] * self.dil[k] + lr[k + 1] * self.dil[k + 1]));
-                debug_assert!((inv * dr[k] * self.eps[k] - 1.0).abs() < 1e-12);
+                let inv = self.inv_de[k];
                 xb[k] = scale(0.5, add(x[k], x[k + 1]));
                 let xp = scale(inv, sub(x[k + 1], x[k]));
                 q[k] = add(cross(kap, xb[k]), xp);
@@ -450,7 +458,6 @@ impl MuscleStatics {
                 );
             }
             for j in 0..n {
-                let e = self.dil[j];
                 let mut vm = Self::nu(w, j);
                 // ∂ν^m_j/∂e_{j−1}, ∂e_j, ∂e_{j+1}.
                 let mut dve = [[0.0; 3]; 3];
@@ -465,57 +472,68 @@ impl MuscleStatics {
                     dve[2] = scale(0.5, dqb[j]);
                 }
                 let len = norm(vm);
-                let t = scale(1.0 / len, vm);
+                let inv_len = 1.0 / len;
+                let t = scale(inv_len, vm);
                 let (ell, dell) = if transverse {
                     let r = 1.0 / len.sqrt();
-                    (r, -0.5 * r / len)
+                    (r, -0.5 * r * inv_len)
                 } else {
                     (len, 1.0)
                 };
                 let lam = ell * m.inv_rest_length[j];
-                let amp = act[j] * m.max_force[j] / e;
+                let amp = act[j] * m.max_force[j] * self.root_inv_e[j].1;
                 let f = amp * m.force_length.value(lam);
                 let df = amp * m.force_length.derivative(lam) * m.inv_rest_length[j] * dell;
                 let nvec = scale(f, t);
                 // M = ∂n/∂ν^m = F/|ν^m| (I − t tᵀ) + dF/d|ν^m| t tᵀ.
+                // M = α I + β t tᵀ: applied to vectors and skew matrices without forming
+                // products of 3 × 3 matrices.
+                let (alpha, beta) = (f * inv_len, df - f * inv_len);
+                let m_vec = |v: Vec3| add(scale(alpha, v), scale(beta * dot(t, v), t));
                 let mut mm = [[0.0; 3]; 3];
                 for r in 0..3 {
                     for c in 0..3 {
-                        let id = if r == c { 1.0 } else { 0.0 };
-                        mm[r][c] = f / len * (id - t[r] * t[c]) + df * t[r] * t[c];
+                        mm[r][c] = beta * t[r] * t[c];
                     }
+                    mm[r][r] += alpha;
                 }
                 let xj = x[j];
                 // ∂n/∂e_i (i = j−1, j, j+1) and ∂c/∂e_i, c = x_j × n_j.
                 let mut g = [[0.0; 3]; 3];
                 let mut gc = [[0.0; 3]; 3];
                 for i in 0..3 {
-                    g[i] = mat_vec(&mm, dve[i]);
+                    g[i] = m_vec(dve[i]);
                     if i == 1 {
-                        g[i] = sub(g[i], scale(1.0 / e, nvec));
+                        g[i] = sub(g[i], scale(self.root_inv_e[j].1, nvec));
                     }
                     gc[i] = cross(xj, g[i]);
                     if i == 1 {
                         gc[i] = add(gc[i], cross(dx[j], nvec));
                     }
                 }
-                // ∂n/∂κ_{j−1}, ∂n/∂κ_j: M (−½[x̄]×); ∂c/∂κ = [x_j]× ∂n/∂κ.
-                let xm = skew_mul(xj, &mm);
+                // ∂n/∂κ_{j−1}, ∂n/∂κ_j: M [u]× with u = −½x̄, i.e. α[u]× + β t (t × u)ᵀ;
+                // ∂c/∂κ = [x_j]× ∂n/∂κ (column by column).
                 let b = &mut blk[j];
                 for (kk, slot) in [(j.wrapping_sub(1), 3), (j, 4)] {
                     if kk >= nk {
                         continue;
                     }
-                    let s = skew(scale(-0.5, xb[kk]));
-                    let nk_ = mat_mul(&mm, &s);
-                    let ck_ = skew_mul(xj, &nk_);
+                    let u = scale(-0.5, xb[kk]);
+                    let su = skew(u);
+                    let tu = cross(t, u);
+                    let mut nk_ = [[0.0; 3]; 3];
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            nk_[r][c] = alpha * su[r][c] + beta * t[r] * tu[c];
+                        }
+                    }
                     acc(&mut b[slot], &nk_, 1.0);
-                    acc(&mut b[5 + slot], &ck_, 1.0);
+                    acc_cross(&mut b[5 + slot], xj, &nk_);
                 }
                 // ∂/∂ν_i = (direct at i = j) + ∂/∂e_i (ν_i/e_i)ᵀ: the e-parts summed over the
                 // fibres first, the outer products once per element below.
                 acc(&mut b[1], &mm, 1.0);
-                acc(&mut b[6], &xm, 1.0);
+                acc_cross(&mut b[6], xj, &mm);
                 let ge = &mut self.grad_e[j];
                 for i in 0..3 {
                     ge[i] = add(ge[i], g[i]);
@@ -819,9 +837,14 @@ fn skew(v: Vec3) -> Mat3 {
     [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]]
 }
 
-/// [x]× M.
-fn skew_mul(x: Vec3, m: &Mat3) -> Mat3 {
-    mat_mul(&skew(x), m)
+/// dst += [x]× M (each column of M crossed with x).
+fn acc_cross(dst: &mut Mat3, x: Vec3, m: &Mat3) {
+    for c in 0..3 {
+        let v = cross(x, [m[0][c], m[1][c], m[2][c]]);
+        for r in 0..3 {
+            dst[r][c] += v[r];
+        }
+    }
 }
 
 /// dst += s · src.
