@@ -185,6 +185,7 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
         energy_consistent: cfg.numerics.energy_consistent,
         guard_interval: cfg.numerics.guard_interval,
         clamp_order: cfg.numerics.clamp_order.unwrap_or(1),
+        max_dt_fraction: cfg.time.auto_dt.then_some(octoarm_physics::AUTO_DT_RECHECK),
         ..Settings::default()
     };
     let mut builder = SystemBuilder::new(settings);

@@ -167,9 +167,10 @@ pub fn check_report(scn: &Scenario) -> Result<String, ScenarioError> {
     }
     let _ = writeln!(
         s,
-        "  stable dt: {stable:.3e} s (recommended <= {:.3e} s); dt = {} s is {:.3} x stable dt",
+        "  stable dt: {stable:.3e} s (recommended <= {:.3e} s); dt = {} s{} is {:.3} x stable dt",
         0.2 * stable,
         fmt_sci(cfg.time.dt),
+        if cfg.time.auto_dt { " (auto)" } else { "" },
         cfg.time.dt / stable
     );
     let _ = writeln!(

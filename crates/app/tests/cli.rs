@@ -3,46 +3,14 @@
 //! rejected with file, line, key and range and leave nothing behind (exit 2), and an unstable
 //! run keeps a readable partial trajectory and exits 1.
 
+mod common;
+use common::{octoarm, stderr, workspace, TINY};
+
 use ndarray::{Array1, Array2, Array3, Array4};
 use ndarray_npy::NpzReader;
 use std::fs::File;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-const TINY: &str = r#"
-[rod]
-n_elements = 10
-length = 0.2
-base_diameter = 0.02
-tip_diameter = 0.01
-density = 700.0
-youngs_modulus = 1.0e4
-shear_modulus = 1.0e3
-
-[time]
-dt = 1.0e-4
-duration = 0.05
-save_interval = 1.0e-3
-
-[damping]
-rate = 10.0
-
-[[load]]
-kind = "tip_force"
-value = [0.0, 1.0e-4, 0.0]
-"#;
-
-fn octoarm(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octoarm"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use std::process::Output;
 
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
@@ -52,13 +20,6 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p
-}
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
 }
 
 struct Trajectory {

@@ -13,74 +13,13 @@
 //! Reference: the file system before and after (every file a user put there is compared byte for
 //! byte); the outputs read back with the zip reader.
 
+mod common;
+use common::{bin, octoarm, snapshot, stderr, workspace, TINY};
+
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_octoarm")
-}
-
-fn octoarm(args: &[&str], cwd: &Path) -> Output {
-    Command::new(bin())
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
-}
-
-const TINY: &str = r#"
-[rod]
-n_elements = 10
-length = 0.2
-base_diameter = 0.02
-tip_diameter = 0.01
-density = 700.0
-youngs_modulus = 1.0e4
-shear_modulus = 1.0e3
-
-[time]
-dt = 1.0e-4
-duration = 0.05
-save_interval = 1.0e-3
-
-[damping]
-rate = 10.0
-
-[[load]]
-kind = "tip_force"
-value = [0.0, 1.0e-4, 0.0]
-"#;
-
-/// Every file below `dir` with its bytes.
-fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push((p.clone(), std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
-}
 
 fn summary(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()

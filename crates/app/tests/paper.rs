@@ -9,29 +9,15 @@
 //! Without a terminal (as here), a controlled run longer than a second prints no progress bar:
 //! its stderr is empty and its outputs are those of the same run with `-q`.
 
+mod common;
+use common::{octoarm, workspace};
+
 use ndarray::{Array1, Array2, Array3, Array4};
 use ndarray_npy::NpzReader;
 use std::fs::File;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 const DURATION: &str = "0.2";
 const N: usize = 100;
-
-fn octoarm(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octoarm"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the binary runs")
-}
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
-}
 
 #[test]
 fn paper_command_writes_every_output_and_matches_run() {

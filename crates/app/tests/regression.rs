@@ -27,8 +27,11 @@
 //! tables) passes, except B's "d never exceeds d(0)", which the scenario notes as infeasible
 //! from rest and which must therefore fail (docs/paper-experiments.md).
 
+mod common;
+use common::workspace;
+
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 /// (scenario, [(member, hash)]) of the code before the rebuild.
@@ -218,13 +221,6 @@ const REFERENCE: &[(&str, &[(&str, u64)])] = &[
         ],
     ),
 ];
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
-}
 
 fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf29ce484222325;

@@ -14,17 +14,11 @@
 //! periodic re-orthonormalisation falls on other steps), or not restoring the work and
 //! dissipation integrals changes at least one array's bits.
 
+mod common;
+use common::octoarm;
+
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn octoarm(args: &[&str], cwd: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_octoarm"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the binary runs")
-}
 
 /// (name, data) of every `.npz` member.
 fn members(path: &Path) -> Vec<(String, Vec<f64>, Vec<usize>)> {

@@ -11,6 +11,9 @@
 //! exit 0/1 (or 101/134) where 2 is expected, as a message without the key, or as a written
 //! `inf`.
 
+mod common;
+use common::{octoarm, snapshot, stderr, workspace, TINY};
+
 use proptest::prelude::*;
 use std::collections::BTreeSet;
 use std::io::Read;
@@ -18,27 +21,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn octoarm(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octoarm"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
 }
 
 fn shipped(name: &str) -> String {
@@ -58,47 +42,6 @@ fn listing(dir: &Path) -> BTreeSet<String> {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect()
 }
-
-/// Every file under `dir` with its bytes.
-fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push((p.clone(), std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
-const TINY: &str = r#"
-[rod]
-n_elements = 10
-length = 0.2
-base_diameter = 0.02
-tip_diameter = 0.01
-density = 700.0
-youngs_modulus = 1.0e4
-shear_modulus = 1.0e3
-
-[time]
-dt = 1.0e-4
-duration = 0.05
-save_interval = 1.0e-3
-
-[damping]
-rate = 10.0
-
-[[load]]
-kind = "tip_force"
-value = [0.0, 1.0e-4, 0.0]
-"#;
 
 /// A bad input: `check` and `run` exit 2, stderr starts with `error: `, names `expected`, and the
 /// folder holds nothing but the scenario afterwards.

@@ -5,9 +5,12 @@
 //! the others untouched; bad sweep files get file:line:col errors naming the key, exit 2 and
 //! nothing written; seeded random samples are reproducible.
 
+mod common;
+use common::{octoarm, stderr};
+
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const BASE: &str = r#"
@@ -46,18 +49,6 @@ range = { start = 1.0e4, stop = 1.0e5, num = 4, scale = "log" }
 path = "load[0].value"
 values = [[0.0, 1.0e-4, 0.0], [0.0, 2.0e-4, 0.0], [0.0, 0.0, 3.0e-4]]
 "#;
-
-fn octoarm(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octoarm"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn setup(sweep: &str) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();

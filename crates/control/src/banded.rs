@@ -121,14 +121,20 @@ impl BandMatrix {
                 }
             }
             let d = 1.0 / self.a[k * w + kl];
+            // Row k's U entries right of the pivot, columns k + 1..=jmax, and each row i below
+            // as slices over the same columns (disjoint: row i starts after row k ends), so that
+            // the update is a plain a·x + y loop the compiler vectorises.
+            let cols = jmax - k;
             for i in k + 1..=last {
-                let ik = i * w + k + kl - i;
-                let l = self.a[ik] * d;
-                self.a[ik] = l;
+                let (head, tail) = self.a.split_at_mut(i * w);
+                let rk = &head[k * w + kl + 1..k * w + kl + 1 + cols];
+                let lik = kl + k - i;
+                let l = tail[lik] * d;
+                tail[lik] = l;
                 if l != 0.0 {
-                    for j in k + 1..=jmax {
-                        let v = self.a[k * w + j + kl - k];
-                        self.a[i * w + j + kl - i] -= l * v;
+                    let ri = &mut tail[lik + 1..lik + 1 + cols];
+                    for (x, v) in ri.iter_mut().zip(rk) {
+                        *x -= l * v;
                     }
                 }
             }
@@ -142,24 +148,42 @@ impl BandMatrix {
         assert!(self.factored, "factor first");
         let (n, kl, w) = (self.n, self.kl, self.width);
         let reach = self.ku + self.kl;
-        // L y = P b.
+        let b = &mut b[..n];
+        // L y = P b. Column k of L below the diagonal: entries (k + 1 + r, k) at stride w − 1.
         for k in 0..n {
             let p = self.pivot[k];
             if p != k {
                 b.swap(k, p);
             }
             let bk = b[k];
-            for i in k + 1..=(k + kl).min(n - 1) {
-                b[i] -= self.a[i * w + k + kl - i] * bk;
+            let last = (k + kl).min(n - 1);
+            if last > k {
+                let col = self.a[(k + 1) * w + kl - 1..].iter().step_by(w - 1);
+                for (x, l) in b[k + 1..=last].iter_mut().zip(col) {
+                    *x -= l * bk;
+                }
             }
         }
-        // U x = y.
+        // U x = y: row k of U right of the diagonal is contiguous.
         for k in (0..n).rev() {
-            let mut s = b[k];
-            for j in k + 1..=(k + reach).min(n - 1) {
-                s -= self.a[k * w + j + kl - k] * b[j];
+            let jmax = (k + reach).min(n - 1);
+            let row = &self.a[k * w + kl..k * w + kl + 1 + jmax - k];
+            // Four partial sums: the row's products are independent, a single running sum
+            // would make the solve a chain of dependent additions.
+            let (u, x) = (&row[1..], &b[k + 1..=jmax]);
+            let mut part = [0.0; 4];
+            let (uc, xc) = (u.chunks_exact(4), x.chunks_exact(4));
+            let (ur, xr) = (uc.remainder(), xc.remainder());
+            for (u4, x4) in uc.zip(xc) {
+                for l in 0..4 {
+                    part[l] += u4[l] * x4[l];
+                }
             }
-            b[k] = s / self.a[k * w + kl];
+            let mut s = b[k] - ((part[0] + part[1]) + (part[2] + part[3]));
+            for (u, x) in ur.iter().zip(xr) {
+                s -= u * x;
+            }
+            b[k] = s / row[0];
         }
     }
 

@@ -44,7 +44,9 @@ pub use muscle_design::{
     ReachTask,
 };
 pub use muscle_shaping::MuscleShapingController;
-pub use muscle_statics::{EquilibriumReport, MuscleStatics, MuscleStaticsError, StaticsConfig};
+pub use muscle_statics::{
+    EquilibriumReport, JacobianKind, MuscleStatics, MuscleStaticsError, StaticsConfig,
+};
 pub use shaping::{EnergyShapingController, ShapingConfig};
 pub use solver::{
     OfflineSolver, OnlineConfig, OnlineReport, OnlineSolver, Outcome, Solution, SolveReport,

@@ -8,8 +8,7 @@
 //! with group masks (groups held at zero). Grasp costs: `GraspTask` (attraction, obstacle,
 //! sucker side) behind the `DesignTask` trait; COOMM's relaxation is not built yet.
 
-use crate::banded::BandMatrix;
-use crate::muscle_statics::{MuscleStatics, MuscleStaticsError, HALF_BAND};
+use crate::muscle_statics::{MuscleStatics, MuscleStaticsError};
 use octoarm_physics::math::{cross, dot, log_relative, mat_vec, norm, Mat3};
 use octoarm_physics::muscles::{Resultants, Strains};
 use octoarm_physics::{RodModel, RodState, Vec3, N_GROUPS};
@@ -320,8 +319,10 @@ pub struct DesignReport {
     pub iterations: usize,
     /// Cost evaluations (each an equilibrium solve).
     pub evaluations: usize,
-    /// Newton iterations summed over the evaluations.
+    /// Newton iterations (fresh Jacobians) summed over the evaluations.
     pub newton_iterations: usize,
+    /// Chord iterations (reused factors) summed over the evaluations.
+    pub chord_iterations: usize,
     /// Costs at the result.
     pub costs: DesignCosts,
     /// Activations at 0 and at 1.
@@ -339,11 +340,11 @@ pub struct MuscleDesign {
     /// Settings.
     pub config: DesignConfig,
     grad_w: Vec<f64>,
-    jac: BandMatrix,
     n_unit: Vec<[Vec<f64>; 3]>,
     c_unit: Vec<[Vec<f64>; 3]>,
     tau_tmp: [Vec<f64>; 3],
     newton_total: usize,
+    chord_total: usize,
 }
 
 impl MuscleDesign {
@@ -356,11 +357,11 @@ impl MuscleDesign {
             statics,
             config: DesignConfig::default(),
             grad_w: vec![0.0; m],
-            jac: BandMatrix::new(m, HALF_BAND, HALF_BAND),
             n_unit: (0..N_GROUPS).map(|_| z(n)).collect(),
             c_unit: (0..N_GROUPS).map(|_| z(n)).collect(),
             tau_tmp: z(n - 1),
             newton_total: 0,
+            chord_total: 0,
         }
     }
 
@@ -448,6 +449,7 @@ impl MuscleDesign {
     ) -> Result<DesignCosts, MuscleStaticsError> {
         let rep = self.statics.solve(a, None)?;
         self.newton_total += rep.newton_iterations;
+        self.chord_total += rep.chord_iterations;
         let n = self.statics.n_elements();
         let lr = self.statics.model().rest_length.clone();
         let mut reg = 0.0;
@@ -467,14 +469,9 @@ impl MuscleDesign {
         let mut c = self.task_gradient(task, &w, Some(&mut gw));
         c.activation = reg;
         c.total += reg;
-        // Adjoint: Kᵀ λ = ∇_w Φ.
-        let mut jac = std::mem::replace(&mut self.jac, BandMatrix::new(0, 0, 0));
-        self.statics.jacobian_fd(&w, a, &mut jac);
-        let factored = jac.factor();
-        if factored.is_ok() {
-            jac.solve_transposed(&mut gw);
-        }
-        self.jac = jac;
+        // Adjoint: Kᵀ λ = ∇_w Φ (K factored at the solution; the next solve's chord steps
+        // reuse the factors).
+        let factored = self.statics.adjoint_solve(a, &mut gw);
         if let Err(e) = factored {
             self.grad_w = gw;
             return Err(MuscleStaticsError::EquilibriumFailed {
@@ -563,6 +560,7 @@ impl MuscleDesign {
     ) -> (Vec<f64>, DesignReport) {
         let start = Instant::now();
         self.newton_total = 0;
+        self.chord_total = 0;
         let n = self.statics.n_elements();
         let nv = N_GROUPS * n;
         let lr = self.statics.model().rest_length.clone();
@@ -665,17 +663,31 @@ impl MuscleDesign {
                 proj(&mut bt);
                 to_a(&bt, &mut at);
                 evaluations += 1;
-                if let Ok(ct) = self.evaluate(task, &at, Some(&mut ga)) {
+                // The cost alone for the Armijo test; the gradient (adjoint solve and the unit
+                // resultants) only at the accepted point, whose equilibrium is then at hand
+                // (the solve finds its residual already below the tolerance).
+                let mut shrink = 0.5;
+                if let Ok(ct) = self.evaluate(task, &at, None) {
                     let dec: f64 = (0..nv).map(|i| g[i] * (bt[i] - b[i])).sum();
                     if ct.total <= costs.total + 1e-4 * dec.min(0.0) && ct.total < costs.total {
-                        for i in 0..nv {
-                            gt[i] = ga[i] / scale[i];
+                        if let Ok(ct) = self.evaluate(task, &at, Some(&mut ga)) {
+                            for i in 0..nv {
+                                gt[i] = ga[i] / scale[i];
+                            }
+                            accepted = Some(ct);
+                            break;
                         }
-                        accepted = Some(ct);
-                        break;
+                    }
+                    // Backtrack to the minimiser of the quadratic through J(b), its slope `dec`
+                    // along the trial step and J(trial), kept within [0.1, 0.5] of the step
+                    // (Nocedal & Wright §3.5): far fewer equilibrium solves than halving when
+                    // the step was much too long.
+                    let curv = ct.total - costs.total - dec;
+                    if dec < 0.0 && curv > 0.0 && curv.is_finite() {
+                        shrink = (-dec / (2.0 * curv)).clamp(0.1, 0.5);
                     }
                 }
-                alpha *= 0.5;
+                alpha *= shrink;
             }
             let Some(ct) = accepted else {
                 // Restore the equilibrium of the current iterate for the report.
@@ -760,6 +772,7 @@ impl MuscleDesign {
             iterations,
             evaluations,
             newton_iterations: self.newton_total,
+            chord_iterations: self.chord_total,
             costs,
             at_zero: a.iter().filter(|v| **v <= 0.0).count(),
             at_one: a.iter().filter(|v| **v >= 1.0).count(),

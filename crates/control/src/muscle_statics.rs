@@ -6,12 +6,13 @@
 //! the fallback; the pose by the forward map. The muscle loads come from the physics crate's
 //! kernel (`MuscleModel::resultants`), the same code the stepper runs.
 //!
-//! The Jacobian is the coloured central-difference one (23 colours, 46 residual evaluations);
-//! the analytic Jacobian of spec §4.2 is not yet implemented (docs/muscles.md).
+//! The Jacobian is the analytic one of spec §4.2 (chain rule through the kernel, assembled in
+//! the band); the coloured central-difference one (23 colours, 46 residual evaluations) is kept
+//! as its test oracle and as an option (`JacobianKind::FiniteDifference`).
 
 use crate::banded::BandMatrix;
-use octoarm_physics::math::{exp_neg_skew, mat_mul, mat_t_vec};
-use octoarm_physics::muscles::{MuscleScratch, Resultants, Strains};
+use octoarm_physics::math::{add, cross, dot, exp_neg_skew, mat_mul, mat_t_vec, norm, scale, sub};
+use octoarm_physics::muscles::{FibreKind, MuscleScratch, Resultants, Strains};
 use octoarm_physics::{Mat3, MuscleModel, RodModel, RodState, Vec3, N_GROUPS};
 
 /// Half-bandwidth of the equilibrium Jacobian in the interleaved ordering.
@@ -27,8 +28,27 @@ pub struct StaticsConfig {
     pub max_newton: usize,
     /// Picard iterations of the fallback. Default 20 000.
     pub max_picard: usize,
-    /// Central-difference step of the Jacobian. Default 1e-7.
+    /// Central-difference step of the finite-difference Jacobian. Default 1e-7.
     pub fd_step: f64,
+    /// Which equilibrium Jacobian Newton (and the design's adjoint) uses. Default analytic.
+    pub jacobian: JacobianKind,
+    /// Chord iterations (spec §4.2): at most this many consecutive steps with the last factored
+    /// Jacobian (from the previous Newton iteration, the previous solve or the design's adjoint)
+    /// before a fresh one; a chord step is kept only if it cuts ρ_R by `chord_contraction`.
+    /// Default 5; 0 = pure Newton.
+    pub max_chord: usize,
+    /// Required factor of decrease of ρ_R per chord step. Default 0.25.
+    pub chord_contraction: f64,
+}
+
+/// How the equilibrium Jacobian ∂R/∂w is formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum JacobianKind {
+    /// Analytic (spec §4.2): one kernel-like pass, ≈ the cost of a few residuals.
+    #[default]
+    Analytic,
+    /// Coloured central differences (23 colours, 46 residuals, step `fd_step`): the oracle.
+    FiniteDifference,
 }
 
 impl Default for StaticsConfig {
@@ -38,6 +58,9 @@ impl Default for StaticsConfig {
             max_newton: 30,
             max_picard: 20_000,
             fd_step: 1e-7,
+            jacobian: JacobianKind::Analytic,
+            max_chord: 5,
+            chord_contraction: 0.25,
         }
     }
 }
@@ -61,8 +84,10 @@ pub enum MuscleStaticsError {
 /// Outcome of one solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EquilibriumReport {
-    /// Newton iterations.
+    /// Newton iterations (each with a fresh Jacobian).
     pub newton_iterations: usize,
+    /// Chord iterations (with a Jacobian factored earlier).
+    pub chord_iterations: usize,
     /// Picard iterations of the fallback (0 if Newton converged).
     pub picard_iterations: usize,
     /// Final scaled residual ρ_R.
@@ -94,6 +119,23 @@ pub struct MuscleStatics {
     dw: Vec<f64>,
     trial: Vec<f64>,
     w: Vec<f64>,
+    // Analytic Jacobian scratch: per element the muscle blocks ∂n_j/∂(ν_{j−1}, ν_j, ν_{j+1},
+    // κ_{j−1}, κ_j) and ∂c_j/∂(same), c_j = Σ x × n; ν_j/e_j; per fibre x, ∂x/∂e (elements),
+    // x̄, q, ∂q/∂e_k, ∂q/∂e_{k+1} (Voronoi points).
+    blocks: Vec<[Mat3; 10]>,
+    // Per element, summed over fibres: ∂n_j/∂e_i and ∂c_j/∂e_i, i = j − 1, j, j + 1.
+    grad_e: Vec<[Vec3; 6]>,
+    unit_nu: Vec<Vec3>,
+    root_inv_e: Vec<(f64, f64)>,
+    inv_de: Vec<f64>,
+    fib_x: Vec<Vec3>,
+    fib_dx: Vec<Vec3>,
+    fib_xbar: Vec<Vec3>,
+    fib_q: Vec<Vec3>,
+    fib_dqa: Vec<Vec3>,
+    fib_dqb: Vec<Vec3>,
+    // Whether `jac` holds a factored Jacobian (of some nearby w and a: chord steps may use it).
+    lu_ready: bool,
     /// Settings.
     pub config: StaticsConfig,
 }
@@ -137,6 +179,18 @@ impl MuscleStatics {
             dw: vec![0.0; m],
             trial: vec![0.0; m],
             w: vec![0.0; m],
+            blocks: vec![[[[0.0; 3]; 3]; 10]; n],
+            grad_e: vec![[[0.0; 3]; 6]; n],
+            root_inv_e: vec![(1.0, 1.0); n],
+            inv_de: vec![1.0; n - 1],
+            unit_nu: vec![[0.0; 3]; n],
+            fib_x: vec![[0.0; 3]; n],
+            fib_dx: vec![[0.0; 3]; n],
+            fib_xbar: vec![[0.0; 3]; n - 1],
+            fib_q: vec![[0.0; 3]; n - 1],
+            fib_dqa: vec![[0.0; 3]; n - 1],
+            fib_dqb: vec![[0.0; 3]; n - 1],
+            lu_ready: false,
             config: StaticsConfig::default(),
         };
         s.w = s.rest();
@@ -329,6 +383,250 @@ impl MuscleStatics {
         self.rm = rm;
     }
 
+    /// The analytic Jacobian ∂R/∂w of the residual (eq. 4.1) at `w` under activations `a`
+    /// (group-major `[7][n]`) into `jac` (band 11), spec §4.2: the elastic part directly, the
+    /// muscle part by the chain rule through the kernel (2.1)–(2.5) — the fibre's strain ν^m,
+    /// its length and force–length curve, the 1/e area, the current offsets r̂/√e and the
+    /// current Voronoi length in x' — with e_j = |ν_j| and ε_k = (l̂_k e_k + l̂_{k+1} e_{k+1})/(2D̂_k)
+    /// functions of w. At a kink of the cubic force–length curve it takes the branch in force
+    /// (`ForceLength::derivative`). The coloured difference Jacobian `jacobian_fd` is its test
+    /// oracle. No allocation.
+    pub fn jacobian(&mut self, w: &[f64], a: &[f64], jac: &mut BandMatrix) {
+        // Strains, e, ε as the residual sees them (the resultants themselves are not needed).
+        self.load(w, a);
+        let n = self.n_elements();
+        let nk = n - 1;
+        let lr = &self.model.rest_length;
+        let dr = &self.model.rest_voronoi_length;
+        let blk = &mut self.blocks;
+        for b in blk.iter_mut() {
+            *b = [[[0.0; 3]; 3]; 10];
+        }
+        for g in self.grad_e.iter_mut() {
+            *g = [[0.0; 3]; 6];
+        }
+        // de_j/dν_j = ν_j/e_j.
+        // e^(−1/2) and 1/e per element, shared by all fibres (square roots and divisions are
+        // most of this function's cost).
+        let te: &mut Vec<Vec3> = &mut self.unit_nu;
+        for j in 0..n {
+            let v = Self::nu(w, j);
+            let e = self.dil[j];
+            let inv_e = 1.0 / e;
+            te[j] = [v[0] * inv_e, v[1] * inv_e, v[2] * inv_e];
+            self.root_inv_e[j] = (1.0 / e.sqrt(), inv_e);
+        }
+        // 1/(D̂_k ε_k) per Voronoi point.
+        for k in 0..nk {
+            self.inv_de[k] = 1.0 / (0.5 * (lr[k] * self.dil[k] + lr[k + 1] * self.dil[k + 1]));
+        }
+        for m in &self.muscles.members {
+            let act = &a[m.group * n..(m.group + 1) * n];
+            if act.iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            let transverse = m.kind == FibreKind::Transverse;
+            // Offsets at the current radius and their e-derivatives, per element.
+            let x = &mut self.fib_x;
+            let dx = &mut self.fib_dx;
+            for j in 0..n {
+                let (root, inv_e) = self.root_inv_e[j];
+                x[j] = [m.offset[0][j] * root, m.offset[1][j] * root, 0.0];
+                dx[j] = [-0.5 * x[j][0] * inv_e, -0.5 * x[j][1] * inv_e, 0.0];
+            }
+            // Per Voronoi point: x̄, q and ∂q/∂e_k, ∂q/∂e_{k+1}.
+            let (xb, q, dqa, dqb) = (
+                &mut self.fib_xbar,
+                &mut self.fib_q,
+                &mut self.fib_dqa,
+                &mut self.fib_dqb,
+            );
+            for k in 0..nk {
+                let kap = [self.kappa[0][k], self.kappa[1][k], self.kappa[2][k]];
+                let inv = self.inv_de[k];
+                xb[k] = scale(0.5, add(x[k], x[k + 1]));
+                let xp = scale(inv, sub(x[k + 1], x[k]));
+                q[k] = add(cross(kap, xb[k]), xp);
+                // ∂x'/∂e_k = −dx_k/de_k /(D̂ε) − x' l̂_k/(2D̂ε), likewise for k + 1.
+                dqa[k] = add(
+                    cross(kap, scale(0.5, dx[k])),
+                    sub(scale(-inv, dx[k]), scale(0.5 * lr[k] * inv, xp)),
+                );
+                dqb[k] = add(
+                    cross(kap, scale(0.5, dx[k + 1])),
+                    sub(scale(inv, dx[k + 1]), scale(0.5 * lr[k + 1] * inv, xp)),
+                );
+            }
+            for j in 0..n {
+                let mut vm = Self::nu(w, j);
+                // ∂ν^m_j/∂e_{j−1}, ∂e_j, ∂e_{j+1}.
+                let mut dve = [[0.0; 3]; 3];
+                if j > 0 {
+                    vm = add(vm, scale(0.5, q[j - 1]));
+                    dve[0] = scale(0.5, dqa[j - 1]);
+                    dve[1] = scale(0.5, dqb[j - 1]);
+                }
+                if j < nk {
+                    vm = add(vm, scale(0.5, q[j]));
+                    dve[1] = add(dve[1], scale(0.5, dqa[j]));
+                    dve[2] = scale(0.5, dqb[j]);
+                }
+                let len = norm(vm);
+                let inv_len = 1.0 / len;
+                let t = scale(inv_len, vm);
+                let (ell, dell) = if transverse {
+                    let r = 1.0 / len.sqrt();
+                    (r, -0.5 * r * inv_len)
+                } else {
+                    (len, 1.0)
+                };
+                let lam = ell * m.inv_rest_length[j];
+                let amp = act[j] * m.max_force[j] * self.root_inv_e[j].1;
+                let f = amp * m.force_length.value(lam);
+                let df = amp * m.force_length.derivative(lam) * m.inv_rest_length[j] * dell;
+                let nvec = scale(f, t);
+                // M = ∂n/∂ν^m = F/|ν^m| (I − t tᵀ) + dF/d|ν^m| t tᵀ.
+                // M = α I + β t tᵀ: applied to vectors and skew matrices without forming
+                // products of 3 × 3 matrices.
+                let (alpha, beta) = (f * inv_len, df - f * inv_len);
+                let m_vec = |v: Vec3| add(scale(alpha, v), scale(beta * dot(t, v), t));
+                let mut mm = [[0.0; 3]; 3];
+                for r in 0..3 {
+                    for c in 0..3 {
+                        mm[r][c] = beta * t[r] * t[c];
+                    }
+                    mm[r][r] += alpha;
+                }
+                let xj = x[j];
+                // ∂n/∂e_i (i = j−1, j, j+1) and ∂c/∂e_i, c = x_j × n_j.
+                let mut g = [[0.0; 3]; 3];
+                let mut gc = [[0.0; 3]; 3];
+                for i in 0..3 {
+                    g[i] = m_vec(dve[i]);
+                    if i == 1 {
+                        g[i] = sub(g[i], scale(self.root_inv_e[j].1, nvec));
+                    }
+                    gc[i] = cross(xj, g[i]);
+                    if i == 1 {
+                        gc[i] = add(gc[i], cross(dx[j], nvec));
+                    }
+                }
+                // ∂n/∂κ_{j−1}, ∂n/∂κ_j: M [u]× with u = −½x̄, i.e. α[u]× + β t (t × u)ᵀ;
+                // ∂c/∂κ = [x_j]× ∂n/∂κ (column by column).
+                let b = &mut blk[j];
+                for (kk, slot) in [(j.wrapping_sub(1), 3), (j, 4)] {
+                    if kk >= nk {
+                        continue;
+                    }
+                    let u = scale(-0.5, xb[kk]);
+                    let su = skew(u);
+                    let tu = cross(t, u);
+                    let mut nk_ = [[0.0; 3]; 3];
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            nk_[r][c] = alpha * su[r][c] + beta * t[r] * tu[c];
+                        }
+                    }
+                    acc(&mut b[slot], &nk_, 1.0);
+                    acc_cross(&mut b[5 + slot], xj, &nk_);
+                }
+                // ∂/∂ν_i = (direct at i = j) + ∂/∂e_i (ν_i/e_i)ᵀ: the e-parts summed over the
+                // fibres first, the outer products once per element below.
+                acc(&mut b[1], &mm, 1.0);
+                acc_cross(&mut b[6], xj, &mm);
+                let ge = &mut self.grad_e[j];
+                for i in 0..3 {
+                    ge[i] = add(ge[i], g[i]);
+                    ge[3 + i] = add(ge[3 + i], gc[i]);
+                }
+            }
+        }
+        // Assemble: muscle blocks plus the elastic part.
+        jac.clear();
+        let te = &self.unit_nu;
+        for j in 0..n {
+            let b = &mut blk[j];
+            let ge = &self.grad_e[j];
+            for i in 0..3 {
+                let Some(col) = (j + i).checked_sub(1).filter(|&c| c < n) else {
+                    continue;
+                };
+                let ti = te[col];
+                for r in 0..3 {
+                    for c in 0..3 {
+                        b[i][r][c] += ge[i][r] * ti[c];
+                        b[5 + i][r][c] += ge[3 + i][r] * ti[c];
+                    }
+                }
+            }
+            let b = &blk[j];
+            let cols_nu = |i: usize| (j + i).checked_sub(1).filter(|&c| c < n);
+            // Rows R^ν_j.
+            for i in 0..3 {
+                if let Some(c) = cols_nu(i) {
+                    put(jac, 6 * j, 6 * c, &b[i], 1.0);
+                }
+            }
+            for (slot, kk) in [(3, j.wrapping_sub(1)), (4, j)] {
+                if kk < nk {
+                    put(jac, 6 * j, 6 * kk + 3, &b[slot], 1.0);
+                }
+            }
+            // c_j enters τ_{j−1} and τ_j with weight ½.
+            for k in [j.wrapping_sub(1), j] {
+                if k >= nk {
+                    continue;
+                }
+                for i in 0..3 {
+                    if let Some(c) = cols_nu(i) {
+                        put(jac, 6 * k + 3, 6 * c, &b[5 + i], 0.5);
+                    }
+                }
+                for (slot, kk) in [(3, j.wrapping_sub(1)), (4, j)] {
+                    if kk < nk {
+                        put(jac, 6 * k + 3, 6 * kk + 3, &b[5 + slot], 0.5);
+                    }
+                }
+            }
+            // Elastic: ∂(S(ν − ν°)/e)/∂ν_j = S/e − S(ν − ν°) tᵀ/e².
+            let s = self.model.shear_stiffness[j];
+            let v = Self::nu(w, j);
+            let e = self.dil[j];
+            for r in 0..3 {
+                let sr = s[r] * (v[r] - self.nu0[j][r]) / (e * e);
+                for c in 0..3 {
+                    let d = if r == c { s[r] / e } else { 0.0 };
+                    jac.add(6 * j + r, 6 * j + c, d - sr * te[j][c]);
+                }
+            }
+        }
+        // Elastic: ∂(B(κ − κ°)/ε³)/∂κ_k = B/ε³; through ε: −3B(κ − κ°)/ε⁴ · l̂_i/(2D̂_k) (ν_i/e_i)ᵀ.
+        for k in 0..nk {
+            let bs = self.model.bend_stiffness[k];
+            let v = Self::kappa(w, k);
+            let ep = self.eps[k];
+            let inv3 = 1.0 / (ep * ep * ep);
+            for r in 0..3 {
+                jac.add(6 * k + 3 + r, 6 * k + 3 + r, bs[r] * inv3);
+                let d = -3.0 * bs[r] * (v[r] - self.kappa0[k][r]) * inv3 / ep;
+                for (i, l) in [(k, lr[k]), (k + 1, lr[k + 1])] {
+                    let de = d * l / (2.0 * dr[k]);
+                    for c in 0..3 {
+                        jac.add(6 * k + 3 + r, 6 * i + c, de * te[i][c]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The equilibrium Jacobian of the kind `config.jacobian` at `w` under `a` into `jac`.
+    pub fn equilibrium_jacobian(&mut self, w: &[f64], a: &[f64], jac: &mut BandMatrix) {
+        match self.config.jacobian {
+            JacobianKind::Analytic => self.jacobian(w, a, jac),
+            JacobianKind::FiniteDifference => self.jacobian_fd(w, a, jac),
+        }
+    }
+
     /// Solve the equilibrium for activations `a` (group-major `[7][n]`), from `warm` or, if
     /// None, from the last solution of this solver (from w° on the first call). The solution is
     /// then `solution()`.
@@ -378,14 +676,39 @@ impl MuscleStatics {
         let mut jac = std::mem::replace(&mut self.jac, BandMatrix::new(0, 0, 0));
         self.residual(w, a, &mut r);
         let mut rho = self.scaled_norm(&r);
-        let mut it = 0;
+        let (mut it, mut chords, mut run) = (0, 0, 0);
         let mut ok = rho <= tol;
         while !ok && it < self.config.max_newton {
+            // A chord step with the factored Jacobian at hand, kept only if it contracts enough.
+            if self.lu_ready && run < self.config.max_chord {
+                for (d, v) in dw.iter_mut().zip(&r) {
+                    *d = -v;
+                }
+                jac.solve(&mut dw);
+                for ((t, x), d) in trial.iter_mut().zip(w.iter()).zip(&dw) {
+                    *t = x + d;
+                }
+                self.residual(&trial, a, &mut dw);
+                let rt = self.scaled_norm(&dw);
+                if rt <= self.config.chord_contraction * rho {
+                    chords += 1;
+                    run += 1;
+                    rho = rt;
+                    w.copy_from_slice(&trial);
+                    r.copy_from_slice(&dw);
+                    ok = rho <= tol;
+                    continue;
+                }
+            }
+            // A Newton step: fresh Jacobian at w, halving while ρ_R does not decrease.
             it += 1;
-            self.jacobian_fd(w, a, &mut jac);
+            run = 0;
+            self.equilibrium_jacobian(w, a, &mut jac);
             if jac.factor().is_err() {
+                self.lu_ready = false;
                 break;
             }
+            self.lu_ready = true;
             for (d, v) in dw.iter_mut().zip(&r) {
                 *d = -v;
             }
@@ -418,12 +741,34 @@ impl MuscleStatics {
         if ok {
             Ok(EquilibriumReport {
                 newton_iterations: it,
+                chord_iterations: chords,
                 picard_iterations: 0,
                 residual: rho,
             })
         } else {
-            Err((it, rho))
+            Err((it + chords, rho))
         }
+    }
+
+    /// The adjoint solve of the design (spec §5.3): Kᵀ x = `rhs` in place, with the equilibrium
+    /// Jacobian K at the last solution under activations `a`, formed (kind `config.jacobian`) and
+    /// factored here; the factors then serve the next solve's chord steps.
+    pub fn adjoint_solve(
+        &mut self,
+        a: &[f64],
+        rhs: &mut [f64],
+    ) -> Result<(), crate::banded::SingularMatrix> {
+        let w = std::mem::take(&mut self.w);
+        let mut jac = std::mem::replace(&mut self.jac, BandMatrix::new(0, 0, 0));
+        self.equilibrium_jacobian(&w, a, &mut jac);
+        let factored = jac.factor();
+        self.lu_ready = factored.is_ok();
+        if factored.is_ok() {
+            jac.solve_transposed(rhs);
+        }
+        self.jac = jac;
+        self.w = w;
+        factored
     }
 
     /// COOMM's fixed-point iteration (spec §4.2): ν_j = ν°_j − e_j S_j⁻¹ n^μ_j,
@@ -483,6 +828,39 @@ impl MuscleStatics {
             velocity: vec![[0.0; 3]; n + 1],
             director,
             omega: vec![[0.0; 3]; n],
+        }
+    }
+}
+
+/// [v]× (so that [v]× u = v × u).
+fn skew(v: Vec3) -> Mat3 {
+    [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]]
+}
+
+/// dst += [x]× M (each column of M crossed with x).
+fn acc_cross(dst: &mut Mat3, x: Vec3, m: &Mat3) {
+    for c in 0..3 {
+        let v = cross(x, [m[0][c], m[1][c], m[2][c]]);
+        for r in 0..3 {
+            dst[r][c] += v[r];
+        }
+    }
+}
+
+/// dst += s · src.
+fn acc(dst: &mut Mat3, src: &Mat3, s: f64) {
+    for r in 0..3 {
+        for c in 0..3 {
+            dst[r][c] += s * src[r][c];
+        }
+    }
+}
+
+/// Add s · block to the 3 × 3 block of `jac` at (row0, col0).
+fn put(jac: &mut BandMatrix, row0: usize, col0: usize, block: &Mat3, s: f64) {
+    for r in 0..3 {
+        for c in 0..3 {
+            jac.add(row0 + r, col0 + c, s * block[r][c]);
         }
     }
 }

@@ -3,12 +3,15 @@
 //!
 //! Independent references: the closed forms of spec §8 (uniform rod; LM: uniform curvature and
 //! shortening; TM: pure elongation; an OM group: the continuum helix, which the discrete one
-//! matches to the chord error); a dense finite-difference Jacobian (the band and the colouring);
+//! matches to the chord error); a dense finite-difference Jacobian (the band and the colouring),
+//! and the coloured one as the oracle of the analytic Jacobian; pure Newton for the chord steps;
 //! COOMM's Picard iteration (a different algorithm with the same fixed point); and the dynamic
 //! arm relaxed under the same activations (statics = dynamics, §8.5).
 //!
 //! How a wrong implementation fails: a wrong residual (1/e or 1/ε³ missing, a sign) moves the
 //! closed-form numbers; a colouring that overlaps bands corrupts the Jacobian (dense comparison);
+//! a missing chain-rule term of the analytic Jacobian (the 1/e area, the current radius, the
+//! current Voronoi length, f_ℓ′) shows as an entry off by far more than 1e-6;
 //! a forward map with the wrong rotation sign or frame order moves the tip; a statics that is not
 //! the stepper's equilibrium leaves the relaxed dynamic arm elsewhere.
 
@@ -61,6 +64,94 @@ fn smooth_activations(n: usize, seed: u64) -> Vec<f64> {
         }
     }
     a
+}
+
+// §8.4 (iii): the analytic equilibrium Jacobian equals the coloured central-difference one (the
+// oracle, itself checked against the dense one above) entrywise to 1e-6 of max |K|, and to 1e-6
+// relative on every entry above 1e-3 of its row's largest, for each force–length curve, every
+// group active (smooth random activations, lengths in the cubic's rising and falling parts) at a
+// point off the equilibrium, on a short and on the full 100-element arm; nothing is set beyond
+// the band. Newton with it converges to the same equilibrium as with the oracle in no more
+// iterations.
+#[test]
+fn analytic_jacobian_matches_coloured_differences() {
+    use octoarm_control::JacobianKind;
+    for (n_el, curve, seed) in [
+        (12, ForceLength::Cubic, 5),
+        (12, ForceLength::Flat, 6),
+        (12, ForceLength::Gaussian, 7),
+        (100, ForceLength::Cubic, 8),
+    ] {
+        let rod = StraightRod::coomm_arm().with_elements(n_el);
+        let (_, mut st) = statics(&rod, curve);
+        let n = st.n_elements();
+        let a = smooth_activations(n, seed);
+        st.solve(&a, None).unwrap();
+        let w: Vec<f64> = st
+            .solution()
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + 1e-3 * (0.7 * i as f64).sin())
+            .collect();
+        let m = st.n_unknowns();
+        let mut fd = BandMatrix::new(m, HALF_BAND, HALF_BAND);
+        let mut an = BandMatrix::new(m, HALF_BAND, HALF_BAND);
+        st.jacobian(&w, &a, &mut an);
+        // Spec §8.4 (iii): the oracle with its step h = 1e-7, entrywise to 1e-6 max |K|.
+        st.jacobian_fd(&w, &a, &mut fd);
+        let mut max: f64 = 0.0;
+        for row in 0..m {
+            for col in row.saturating_sub(HALF_BAND)..=(row + HALF_BAND).min(m - 1) {
+                max = max.max(fd.get(row, col).abs());
+            }
+        }
+        let mut worst_abs: f64 = 0.0;
+        for row in 0..m {
+            for col in row.saturating_sub(HALF_BAND)..=(row + HALF_BAND).min(m - 1) {
+                worst_abs = worst_abs.max((an.get(row, col) - fd.get(row, col)).abs() / max);
+            }
+        }
+        // Relative, entry by entry: at h = 1e-7 the differences' round-off (≈ 1e-16 |R|/h,
+        // 1e-12 absolute, changing sign and size with h as 1/h) swamps the small entries; at
+        // h = 1e-5 it is 100× smaller and the truncation error (h²) still negligible.
+        st.config.fd_step = 1e-5;
+        st.jacobian_fd(&w, &a, &mut fd);
+        st.config.fd_step = 1e-7;
+        let mut worst_rel: f64 = 0.0;
+        for row in 0..m {
+            let cols = row.saturating_sub(HALF_BAND)..=(row + HALF_BAND).min(m - 1);
+            let row_max = cols
+                .clone()
+                .map(|c| fd.get(row, c).abs())
+                .fold(0.0, f64::max);
+            for col in cols {
+                let (x, y) = (an.get(row, col), fd.get(row, col));
+                if y.abs() >= 1e-3 * row_max {
+                    worst_rel = worst_rel.max((x - y).abs() / y.abs());
+                }
+            }
+        }
+        eprintln!("n = {n_el}, {curve:?}: max |K_an − K_fd|/max|K| = {worst_abs:.1e}, relative {worst_rel:.1e}");
+        assert!(worst_abs <= 1e-6, "{curve:?}, n = {n_el}: {worst_abs:e}");
+        assert!(worst_rel <= 1e-6, "{curve:?}, n = {n_el}: {worst_rel:e}");
+        // Newton with either Jacobian: the same equilibrium.
+        st.config.jacobian = JacobianKind::FiniteDifference;
+        let r_fd = st.solve(&a, Some(&st.rest())).unwrap();
+        let w_fd = st.solution().to_vec();
+        st.config.jacobian = JacobianKind::Analytic;
+        let r_an = st.solve(&a, Some(&st.rest())).unwrap();
+        assert!(
+            r_an.newton_iterations <= r_fd.newton_iterations,
+            "{r_an:?} {r_fd:?}"
+        );
+        let diff = st
+            .solution()
+            .iter()
+            .zip(&w_fd)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(diff < 1e-10, "{diff:e}");
+    }
 }
 
 // §8.4 (iii) for the oracle itself: the coloured central-difference Jacobian equals the dense
@@ -304,8 +395,18 @@ fn newton_picard_and_warm_start_agree() {
         );
     }
     let b: Vec<f64> = a.iter().map(|v| (v * 1.02).min(1.0)).collect();
+    let mut pure = st.clone();
     let warm = st.solve(&b, None).unwrap();
     assert!(warm.newton_iterations <= 4, "{warm:?}");
+    // Chord steps (the factors of the last Newton iteration reused) reach the equilibrium that
+    // pure Newton (no chord) reaches from the same warm start.
+    assert!(warm.chord_iterations > 0, "{warm:?}");
+    pure.config.max_chord = 0;
+    let p = pure.solve(&b, None).unwrap();
+    assert_eq!(p.chord_iterations, 0);
+    for (x, y) in st.solution().iter().zip(pure.solution()) {
+        assert!((x - y).abs() < 1e-10 * (1.0 + y.abs()), "{x} vs {y}");
+    }
     // Bad activations are refused with the entry named.
     let mut bad = a.clone();
     bad[3 * n + 7] = 1.5;

@@ -157,7 +157,10 @@ impl InternalLoads {
     /// l̂_j ν_j × (n_j/e_j + n^μ_j). The muscles' share is also kept in `muscle_force` /
     /// `muscle_couple` (for the work of the actuation) and the resultants in `muscle_n` /
     /// `muscle_tau`.
+    // `inline(always)`: compiled into the stepper's kernels (`step_avx2` gets AVX2/FMA code),
+    // like `compute_rod`; without it every rod's internal loads ran as baseline x86-64 code.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn compute_rod_with_muscles(
         &mut self,
         model: &RodModel,

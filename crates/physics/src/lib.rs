@@ -62,4 +62,7 @@ pub use simulation::Simulation;
 pub use state::{RodAccess, RodState, RodView, SystemState};
 pub use step::{check, joint_energy, rod_energies, step, Workspace};
 pub use store::{Mat3s, Vec3s};
-pub use system::{RestChange, Rod, RodSpec, RodSystem, Settings, SystemBuilder};
+pub use system::{
+    auto_dt, RestChange, Rod, RodSpec, RodSystem, Settings, SystemBuilder, AUTO_DT_FRACTION,
+    AUTO_DT_RECHECK,
+};

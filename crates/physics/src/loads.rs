@@ -188,7 +188,9 @@ impl Load {
     }
 
     /// Add this load times `k` on the rod `s` (model `model`, nodes from `first_node`, elements
-    /// from `first_element` in `out`).
+    /// from `first_element` in `out`). `inline(always)`: compiled into the stepper's kernels
+    /// (AVX2/FMA code in `step_avx2`).
+    #[inline(always)]
     pub(crate) fn apply(
         &self,
         model: &RodModel,
@@ -265,15 +267,20 @@ impl Load {
                 let (p, v) = (&s.position, &s.velocity);
                 let half = -0.5 * rho * k;
                 let pi = std::f64::consts::PI;
+                let (r, lr) = (&model.radius[..n], &model.rest_length[..n]);
+                // Each node gets half of each adjacent element's force: carry the previous
+                // element's half to its shared node (one store per node).
+                let mut prev = [0.0; 3];
                 for j in 0..n {
                     let dx = [
                         p[0][j + 1] - p[0][j],
                         p[1][j + 1] - p[1][j],
                         p[2][j + 1] - p[2][j],
                     ];
+                    // P_j = 2 r_j l_j with the current radius r̂_j/√e_j, e_j = l_j/l̂_j:
+                    // 2 r̂_j l_j/√(l_j/l̂_j) = 2 r̂_j √(l_j l̂_j) (one square root, no division).
                     let l = (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]).sqrt();
-                    let e = l * model.inv_rest_length[j];
-                    let area = 2.0 * model.radius[j] / e.sqrt() * l;
+                    let area = 2.0 * r[j] * (l * lr[j]).sqrt();
                     let vm = [
                         0.5 * (v[0][j] + v[0][j + 1]),
                         0.5 * (v[1][j] + v[1][j + 1]),
@@ -290,9 +297,13 @@ impl Load {
                     ];
                     let fl = crate::math::mat_t_vec(&q, f);
                     let h = [0.5 * fl[0], 0.5 * fl[1], 0.5 * fl[2]];
-                    out.force.add(first_node + j, h);
-                    out.force.add(first_node + j + 1, h);
+                    out.force.add(
+                        first_node + j,
+                        [prev[0] + h[0], prev[1] + h[1], prev[2] + h[2]],
+                    );
+                    prev = h;
                 }
+                out.force.add(first_node + n, prev);
             }
         }
     }

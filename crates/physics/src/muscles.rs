@@ -252,6 +252,12 @@ pub struct Member {
     pub inv_rest_length: Vec<f64>,
     /// ς σ_max φ Â_j [N]: the signed force at unit activation, f_ℓ = 1 and e = 1.
     pub max_force: Vec<f64>,
+    /// The member two places before this one if it lies diametrically opposite (offsets exactly
+    /// negated, e.g. LM2 of LM0, the third fibre of an oblique group of the first): the kernel
+    /// then reuses that member's offsets and q with the sign flipped (bit-identical to computing
+    /// them anew, and cheaper).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub antipode: Option<usize>,
 }
 
 /// The muscles of one rod model: every member's precomputed arrays and the rod's rest lengths.
@@ -270,14 +276,15 @@ pub struct MuscleModel {
 #[derive(Debug, Clone, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct MuscleScratch {
-    // Per element: e^(−1/2), 1/e, the member's offset (2), Σ x × n (3).
+    // Per element: e^(−1/2), 1/e, Σ x × n (3); in two slots (member index parity, so that an
+    // antipode finds its partner's): the member's offset (2).
     root: Vec<f64>,
     inv_e: Vec<f64>,
-    x1: Vec<f64>,
-    x2: Vec<f64>,
+    x: [[Vec<f64>; 2]; 2],
     c: [Vec<f64>; 3],
-    // Per Voronoi point, padded with zero ghosts at 0 and n: q (3); 1/(D̂ ε) unpadded.
-    q: [Vec<f64>; 3],
+    // Per Voronoi point, padded with zero ghosts at 0 and n, in the two slots: q (3);
+    // 1/(D̂ ε) unpadded.
+    q: [[Vec<f64>; 3]; 2],
     inv_de: Vec<f64>,
 }
 
@@ -288,10 +295,9 @@ impl MuscleScratch {
         Self {
             root: z(),
             inv_e: z(),
-            x1: z(),
-            x2: z(),
+            x: [[z(), z()], [z(), z()]],
             c: [z(), z(), z()],
-            q: [z(), z(), z()],
+            q: [[z(), z(), z()], [z(), z(), z()]],
             inv_de: z(),
         }
     }
@@ -341,6 +347,25 @@ impl MuscleModel {
                     offset[0][j] = r * phi.cos();
                     offset[1][j] = r * phi.sin();
                 }
+                // Diametrically opposite the member two places before (to round-off): make
+                // the offsets exactly negated, so that the kernel may reuse that member's.
+                let mut antipode = None;
+                if let Some(p) = members.len().checked_sub(2) {
+                    let other: &Member = &members[p];
+                    let scale = model.radius.iter().fold(0.0f64, |m, r| m.max(*r));
+                    let opposite = (0..n).all(|j| {
+                        (offset[0][j] + other.offset[0][j]).abs() <= 1e-12 * scale
+                            && (offset[1][j] + other.offset[1][j]).abs() <= 1e-12 * scale
+                    });
+                    if opposite {
+                        for c in 0..2 {
+                            for j in 0..n {
+                                offset[c][j] = -other.offset[c][j];
+                            }
+                        }
+                        antipode = Some(p);
+                    }
+                }
                 let sign = if grp.kind == FibreKind::Transverse {
                     -1.0
                 } else {
@@ -384,6 +409,7 @@ impl MuscleModel {
                     offset,
                     inv_rest_length,
                     max_force,
+                    antipode,
                 });
             }
         }
@@ -456,8 +482,10 @@ impl MuscleModel {
             out.force[c][..n].fill(0.0);
             out.couple[c][..nk].fill(0.0);
             scratch.c[c][..n].fill(0.0);
-            scratch.q[c][0] = 0.0;
-            scratch.q[c][n] = 0.0;
+            for q in &mut scratch.q {
+                q[c][0] = 0.0;
+                q[c][n] = 0.0;
+            }
         }
         let dil = &s.dilatation[..n];
         let eps = &s.voronoi_dilatation[..nk];
@@ -478,43 +506,34 @@ impl MuscleModel {
         let (cx, cy, cz) = (&mut cx[..n], &mut cy[..n], &mut cz[..n]);
         let [ref mut fx, ref mut fy, ref mut fz] = out.force;
         let (fx, fy, fz) = (&mut fx[..n], &mut fy[..n], &mut fz[..n]);
-        for m in &self.members {
+        // The member whose offsets and q each slot holds.
+        let mut held: [Option<usize>; 2] = [None; 2];
+        for (mi, m) in self.members.iter().enumerate() {
             let a = &activation[m.group][..n];
             if a.iter().all(|&v| v == 0.0) {
                 continue;
             }
-            let (ox, oy) = (&m.offset[0][..n], &m.offset[1][..n]);
-            let root = &scratch.root[..n];
+            let slot = mi % 2;
+            // An antipode (offsets exactly −x of the member two places before) reuses that
+            // member's x and q with the sign flipped when they are still held.
+            let flipped = m.antipode.is_some() && m.antipode == held[slot];
+            if !flipped {
+                held[slot] = Some(mi);
+                compute_offsets_and_q(
+                    m,
+                    n,
+                    &scratch.root[..n],
+                    &scratch.inv_de[..nk],
+                    [kx, ky, kz],
+                    &mut scratch.x[slot],
+                    &mut scratch.q[slot],
+                );
+            }
             let inv_e = &scratch.inv_e[..n];
-            let inv_de = &scratch.inv_de[..nk];
-            // Offsets at the current radius r̂/√e (eq. 1.1).
-            {
-                let x1 = &mut scratch.x1[..n];
-                let x2 = &mut scratch.x2[..n];
-                for j in 0..n {
-                    x1[j] = ox[j] * root[j];
-                    x2[j] = oy[j] * root[j];
-                }
-            }
-            let (x1, x2) = (&scratch.x1[..n], &scratch.x2[..n]);
-            // q_k = κ_k × x̄_k + x'_k (eq. 2.1), x₃ = 0; slot k + 1 holds point k.
-            {
-                let [ref mut q1, ref mut q2, ref mut q3] = scratch.q;
-                let (q1, q2, q3) = (&mut q1[1..n], &mut q2[1..n], &mut q3[1..n]);
-                for k in 0..nk {
-                    let b1 = 0.5 * (x1[k] + x1[k + 1]);
-                    let b2 = 0.5 * (x2[k] + x2[k + 1]);
-                    let d1 = (x1[k + 1] - x1[k]) * inv_de[k];
-                    let d2 = (x2[k + 1] - x2[k]) * inv_de[k];
-                    q1[k] = -kz[k] * b2 + d1;
-                    q2[k] = kz[k] * b1 + d2;
-                    q3[k] = kx[k] * b2 - ky[k] * b1;
-                }
-            }
             let (q1, q2, q3) = (
-                &scratch.q[0][..n + 1],
-                &scratch.q[1][..n + 1],
-                &scratch.q[2][..n + 1],
+                &scratch.q[slot][0][..n + 1],
+                &scratch.q[slot][1][..n + 1],
+                &scratch.q[slot][2][..n + 1],
             );
             let inv_l0 = &m.inv_rest_length[..n];
             let fmax = &m.max_force[..n];
@@ -525,23 +544,18 @@ impl MuscleModel {
             let input = FibreInput {
                 sigma: [sx, sy, sz],
                 q: [q1, q2, q3],
-                x: [&scratch.x1[..n], &scratch.x2[..n]],
+                x: [&scratch.x[slot][0][..n], &scratch.x[slot][1][..n]],
                 a,
                 inv_e,
                 inv_l0,
                 fmax,
             };
-            // One monomorphic loop per (kind, curve): no branch inside the element loop.
+            // One monomorphic loop per (kind, curve, sign): no branch inside the element loop.
             let transverse = m.kind == FibreKind::Transverse;
-            match (transverse, m.force_length) {
-                (false, ForceLength::Flat) => fibre_loop(&input, acc, |l| l, |_| 1.0),
-                (false, ForceLength::Cubic) => fibre_loop(&input, acc, |l| l, cubic),
-                (false, ForceLength::Gaussian) => fibre_loop(&input, acc, |l| l, gaussian),
-                (true, ForceLength::Flat) => fibre_loop(&input, acc, |l| 1.0 / l.sqrt(), |_| 1.0),
-                (true, ForceLength::Cubic) => fibre_loop(&input, acc, |l| 1.0 / l.sqrt(), cubic),
-                (true, ForceLength::Gaussian) => {
-                    fibre_loop(&input, acc, |l| 1.0 / l.sqrt(), gaussian)
-                }
+            if flipped {
+                fibre_dispatch::<true>(&input, acc, transverse, m.force_length);
+            } else {
+                fibre_dispatch::<false>(&input, acc, transverse, m.force_length);
             }
         }
         if let Some(mo) = out.moment.as_mut() {
@@ -685,6 +699,63 @@ fn gaussian(l: f64) -> f64 {
     (-0.5 * z * z).exp()
 }
 
+/// Offsets at the current radius r̂/√e (eq. 1.1) and q_k = κ_k × x̄_k + x'_k (eq. 2.1, x₃ = 0;
+/// slot k + 1 of `q` holds point k, the ghosts 0 and n stay zero) for member `m`.
+#[inline(always)]
+fn compute_offsets_and_q(
+    m: &Member,
+    n: usize,
+    root: &[f64],
+    inv_de: &[f64],
+    kappa: [&[f64]; 3],
+    x: &mut [Vec<f64>; 2],
+    q: &mut [Vec<f64>; 3],
+) {
+    let nk = n - 1;
+    let (ox, oy) = (&m.offset[0][..n], &m.offset[1][..n]);
+    let (root, inv_de) = (&root[..n], &inv_de[..nk]);
+    let [kx, ky, kz] = kappa;
+    let (kx, ky, kz) = (&kx[..nk], &ky[..nk], &kz[..nk]);
+    let [ref mut x1, ref mut x2] = *x;
+    let (x1, x2) = (&mut x1[..n], &mut x2[..n]);
+    for j in 0..n {
+        x1[j] = ox[j] * root[j];
+        x2[j] = oy[j] * root[j];
+    }
+    let [ref mut q1, ref mut q2, ref mut q3] = *q;
+    let (q1, q2, q3) = (&mut q1[1..n], &mut q2[1..n], &mut q3[1..n]);
+    for k in 0..nk {
+        let b1 = 0.5 * (x1[k] + x1[k + 1]);
+        let b2 = 0.5 * (x2[k] + x2[k + 1]);
+        let d1 = (x1[k + 1] - x1[k]) * inv_de[k];
+        let d2 = (x2[k + 1] - x2[k]) * inv_de[k];
+        q1[k] = -kz[k] * b2 + d1;
+        q2[k] = kz[k] * b1 + d2;
+        q3[k] = kx[k] * b2 - ky[k] * b1;
+    }
+}
+
+/// `fibre_loop` for the fibre's kind and curve; `NEG`: the input's offsets and q are those of
+/// the antipode (use −x, −q).
+#[inline(always)]
+fn fibre_dispatch<const NEG: bool>(
+    input: &FibreInput<'_>,
+    acc: Accumulators<'_>,
+    transverse: bool,
+    curve: ForceLength,
+) {
+    match (transverse, curve) {
+        (false, ForceLength::Flat) => fibre_loop::<NEG>(input, acc, |l| l, |_| 1.0),
+        (false, ForceLength::Cubic) => fibre_loop::<NEG>(input, acc, |l| l, cubic),
+        (false, ForceLength::Gaussian) => fibre_loop::<NEG>(input, acc, |l| l, gaussian),
+        (true, ForceLength::Flat) => fibre_loop::<NEG>(input, acc, |l| 1.0 / l.sqrt(), |_| 1.0),
+        (true, ForceLength::Cubic) => fibre_loop::<NEG>(input, acc, |l| 1.0 / l.sqrt(), cubic),
+        (true, ForceLength::Gaussian) => {
+            fibre_loop::<NEG>(input, acc, |l| 1.0 / l.sqrt(), gaussian)
+        }
+    }
+}
+
 struct FibreInput<'a> {
     sigma: [&'a [f64]; 3],
     q: [&'a [f64]; 3],
@@ -702,8 +773,10 @@ struct Accumulators<'a> {
 
 /// Eqs. 2.2–2.5 for one fibre over all elements: ν^m, its length (`length` maps |ν^m| to ℓ),
 /// f_ℓ(ℓ/ℓ°) (`curve`), n^m = F ν^m/|ν^m|, accumulated into n^μ and Σ x × n.
+/// With `NEG` the fibre is the antipode of the one whose x and q are given: ν^m uses −q and
+/// the moments −x (exactly what −x and −q stored would give: negation is exact in floating point).
 #[inline(always)]
-fn fibre_loop(
+fn fibre_loop<const NEG: bool>(
     i: &FibreInput<'_>,
     acc: Accumulators<'_>,
     length: impl Fn(f64) -> f64,
@@ -724,9 +797,16 @@ fn fibre_loop(
     let (cx, cy, cz) = (&mut cx[..n], &mut cy[..n], &mut cz[..n]);
     for j in 0..n {
         // Eq. 2.2: ν^m_j = ν_j + ½(q_{j−1} + q_j).
-        let v0 = sx[j] + 0.5 * (q1[j] + q1[j + 1]);
-        let v1 = sy[j] + 0.5 * (q2[j] + q2[j + 1]);
-        let v2 = 1.0 + sz[j] + 0.5 * (q3[j] + q3[j + 1]);
+        let (h0, h1, h2) = (
+            0.5 * (q1[j] + q1[j + 1]),
+            0.5 * (q2[j] + q2[j + 1]),
+            0.5 * (q3[j] + q3[j + 1]),
+        );
+        let (v0, v1, v2) = if NEG {
+            (sx[j] - h0, sy[j] - h1, 1.0 + sz[j] - h2)
+        } else {
+            (sx[j] + h0, sy[j] + h1, 1.0 + sz[j] + h2)
+        };
         let len = (v0 * v0 + v1 * v1 + v2 * v2).sqrt();
         let f = curve(length(len) * inv_l0[j]);
         // Eqs. 2.4–2.5: n = F t, F = ς a σ_max f_ℓ φ Â / e.
@@ -735,8 +815,14 @@ fn fibre_loop(
         fx[j] += n0;
         fy[j] += n1;
         fz[j] += n2;
-        cx[j] += x2[j] * n2;
-        cy[j] -= x1[j] * n2;
-        cz[j] += x1[j] * n1 - x2[j] * n0;
+        if NEG {
+            cx[j] -= x2[j] * n2;
+            cy[j] += x1[j] * n2;
+            cz[j] -= x1[j] * n1 - x2[j] * n0;
+        } else {
+            cx[j] += x2[j] * n2;
+            cy[j] -= x1[j] * n2;
+            cz[j] += x1[j] * n1 - x2[j] * n0;
+        }
     }
 }

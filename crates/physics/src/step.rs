@@ -901,6 +901,8 @@ struct Failure {
 /// The quantity of a guard failure whose value left the range of float64 (an energy or the
 /// work of the loads): no time step helps.
 const ENERGY_OVERFLOW: &str = "total energy H [J] (not finite)";
+/// The quantity of the automatic time step's re-check (`Settings::max_dt_fraction`).
+const DT_RECHECK: &str = "dt / stable limit of the deformed state (automatic time step)";
 const WORK_OVERFLOW: &str = "external work or dissipated energy [J] (not finite)";
 
 fn unstable(system: &RodSystem, state: &SystemState, f: Failure) -> StepError {
@@ -922,6 +924,15 @@ fn unstable(system: &RodSystem, state: &SystemState, f: Failure) -> StepError {
             "the stable time step of this system is {shown} s: a stiffness, mass or inertia \
              overflows or vanishes; check youngs_modulus, shear_modulus, density and the \
              diameters (no time step can make it stable)"
+        )
+    } else if f.what == DT_RECHECK {
+        let now = system.stable_dt_at(state);
+        format!(
+            "the deformation raised the highest natural frequency: the stable limit is now \
+             {now:.3e} s (at rest {limit:.3e} s), and the automatic dt = {dt:e} s is above {} × \
+             that; set a fixed dt ≤ {:.2e} s",
+            system.settings.max_dt_fraction.unwrap_or(1.0),
+            crate::system::AUTO_DT_FRACTION * now
         )
     } else if dt > 0.2 * limit {
         format!(
@@ -1095,6 +1106,22 @@ pub fn check(system: &RodSystem, state: &SystemState, ws: &mut Workspace) -> Res
                     false,
                 ));
             }
+        }
+    }
+    // An automatic time step stays inside the stable limit of the deformed state.
+    if let Some(fraction) = system.settings.max_dt_fraction {
+        let (w_rods, r, j) = system.fastest_element_at(state);
+        let w = w_rods.max(system.other_max_frequency());
+        let ratio = dt * w / 2.0;
+        if ratio.is_nan() || ratio > fraction {
+            return fail(Failure {
+                what: DT_RECHECK,
+                value: ratio,
+                domain: "element",
+                index: j,
+                zigzag: false,
+                rod: (w_rods >= w).then_some(r),
+            });
         }
     }
     // Energy blow-up, with the reference reset whenever the rest strains were changed.

@@ -14,7 +14,7 @@ use crate::loads::{AppliedLoad, Load};
 use crate::math::{orthonormality_defect, Mat3, Vec3};
 use crate::model::RodModel;
 use crate::schedule::Schedule;
-use crate::state::{RodState, RodView, SystemState};
+use crate::state::{RodAccess, RodState, RodView, SystemState};
 use std::sync::Arc;
 
 /// Numerical settings of a run.
@@ -35,6 +35,41 @@ pub struct Settings {
     /// spring (a ghost element at the clamp; second order). See docs/physics.md.
     #[cfg_attr(feature = "serde", serde(default = "default_clamp_order"))]
     pub clamp_order: u8,
+    /// Largest allowed dt / stable limit of the *current, deformed* state
+    /// (`RodSystem::stable_dt_at`), re-checked by the guard every `guard_interval` steps;
+    /// `None` (default): not checked. The automatic time step sets `AUTO_DT_RECHECK`.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub max_dt_fraction: Option<f64>,
+}
+
+/// Fraction of the stable limit 2/ω̂_max that the automatic time step uses: the spec's
+/// recommended operating point (§11). At ω̂_max Δt = 0.4 the fastest (tip shear–rotation)
+/// mode keeps its frequency to (ωΔt)²/24 ≈ 0.7 % and position Verlet stays 5× inside its
+/// stability bound; the same fraction is what the guard suggests after an instability.
+pub const AUTO_DT_FRACTION: f64 = 0.2;
+
+/// The guard's re-check of an automatic time step: dt must stay ≤ this fraction of the stable
+/// limit re-estimated at the deformed state (a factor 2 inside ω̂_max Δt < 2; deformation may
+/// raise ω̂_max by 2.5× before it fires).
+pub const AUTO_DT_RECHECK: f64 = 0.5;
+
+/// The automatic time step for a system whose stable limit is `stable_dt` and whose sampling
+/// interval is `interval` (recording, control): the largest dt ≤ `AUTO_DT_FRACTION ·
+/// stable_dt` that divides `interval` into a whole number of steps, so that samples fall on
+/// steps exactly. Returns `None` when either input is not finite and positive.
+pub fn auto_dt(stable_dt: f64, interval: f64) -> Option<f64> {
+    let target = AUTO_DT_FRACTION * stable_dt;
+    if !(target.is_finite() && target > 0.0 && interval.is_finite() && interval > 0.0) {
+        return None;
+    }
+    let steps = (interval / target).ceil().max(1.0);
+    let dt = interval / steps;
+    // Rounding may leave interval / steps a hair above the target: one more step then.
+    Some(if dt > target {
+        interval / (steps + 1.0)
+    } else {
+        dt
+    })
 }
 
 fn default_clamp_order() -> u8 {
@@ -49,6 +84,7 @@ impl Default for Settings {
             guard_interval: 100,
             orthonormality_interval: 1000,
             clamp_order: default_clamp_order(),
+            max_dt_fraction: None,
         }
     }
 }
@@ -85,6 +121,15 @@ impl Settings {
                 value: 0,
                 range: "[1, inf)",
             });
+        }
+        if let Some(f) = self.max_dt_fraction {
+            if !(f > 0.0 && f <= 1.0) {
+                return Err(ModelError::OutOfRange {
+                    field: "max_dt_fraction",
+                    value: f,
+                    range: "(0, 1]",
+                });
+            }
         }
         Ok(())
     }
@@ -486,11 +531,85 @@ impl RodSystem {
     /// Largest natural frequency estimate of the system [rad/s]: the rods' (spec §11) and each
     /// joint's spring on the two end masses and inertias.
     pub fn max_frequency(&self) -> f64 {
-        let mut w: f64 = self
+        let w: f64 = self
             .rods
             .iter()
             .map(|r| r.model.max_frequency())
             .fold(0.0, f64::max);
+        w.max(self.other_max_frequency())
+    }
+
+    /// `max_frequency` re-estimated at the deformed `state` [rad/s]: per element j, the axial
+    /// and bending zig-zag term 4E/(ρ l̂²) scaled by the stiffening of the current strains,
+    /// max(1/e_j², 1/ε³ of its Voronoi points) (the force n/e and the couple τ/ε³ of spec §3),
+    /// and the shear–rotation term 4πα_cG/(ρÂ) scaled by max(1, e_j²) (the shear couple's
+    /// lever arm e l̂). Equal to `max_frequency` at rest; joints and contact as there.
+    pub fn max_frequency_at(&self, state: &SystemState) -> f64 {
+        self.fastest_element_at(state)
+            .0
+            .max(self.other_max_frequency())
+    }
+
+    /// The part of `max_frequency` that does not depend on the state: joints and contact.
+    pub(crate) fn other_max_frequency(&self) -> f64 {
+        self.joint_frequency().max(self.contact_max_frequency())
+    }
+
+    /// The rods' part of `max_frequency_at`: (ω̂ [rad/s], rod, element where it is largest).
+    pub(crate) fn fastest_element_at(&self, state: &SystemState) -> (f64, usize, usize) {
+        let (mut w2, mut at): (f64, (usize, usize)) = (0.0, (0, 0));
+        for (r, rod) in self.rods.iter().enumerate() {
+            let m = &rod.model;
+            let s = self.view(state, r);
+            let n = m.n_elements;
+            let mat = &m.material;
+            let e = |j: usize| -> f64 {
+                let (a, b) = (s.position(j), s.position(j + 1));
+                let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * m.inv_rest_length[j]
+            };
+            let eps = |k: usize, ek: f64, ek1: f64| -> f64 {
+                (ek * m.rest_length[k] + ek1 * m.rest_length[k + 1])
+                    / (m.rest_length[k] + m.rest_length[k + 1])
+            };
+            let mut prev = e(0);
+            let mut prev_eps = f64::INFINITY;
+            for j in 0..n {
+                let ej = prev;
+                let next = if j + 1 < n { e(j + 1) } else { f64::NAN };
+                let eps_next = if j + 1 < n {
+                    eps(j, ej, next)
+                } else {
+                    f64::INFINITY
+                };
+                let soft = prev_eps.min(eps_next).powi(3).min(ej * ej);
+                let axial =
+                    4.0 * mat.youngs_modulus / (mat.density * m.rest_length[j].powi(2)) / soft;
+                let shear_rot =
+                    4.0 * std::f64::consts::PI * mat.shear_coefficient * mat.shear_modulus
+                        / (mat.density * m.area[j])
+                        * (ej * ej).max(1.0);
+                let w = axial + shear_rot;
+                // A non-finite strain makes the estimate infinite (stable limit 0), not NaN.
+                let w = if w.is_nan() { f64::INFINITY } else { w };
+                if w > w2 {
+                    (w2, at) = (w, (r, j));
+                }
+                prev = next;
+                prev_eps = eps_next;
+            }
+        }
+        (w2.sqrt(), at.0, at.1)
+    }
+
+    /// The stable limit 2 / `max_frequency_at(state)` [s] of the deformed state.
+    pub fn stable_dt_at(&self, state: &SystemState) -> f64 {
+        2.0 / self.max_frequency_at(state)
+    }
+
+    /// Largest angular frequency of the joints' springs on their end masses and inertias.
+    fn joint_frequency(&self) -> f64 {
+        let mut w: f64 = 0.0;
         for j in &self.joints {
             let ends = [j.first, j.second];
             let mut inv_m = 0.0;
@@ -505,7 +624,7 @@ impl RodSystem {
             let w2 = (p.stiffness * inv_m).max(p.rotational_stiffness * inv_j);
             w = w.max(w2.sqrt());
         }
-        w.max(self.contact_max_frequency())
+        w
     }
 
     /// Largest angular frequency the contact springs can add [rad/s] (0 without contact):

@@ -629,3 +629,42 @@ fn lm0_bends_the_arm_towards_its_side() {
     assert!(sim.set_activation(group::LM0, &vec![1.5; n]).is_err());
     assert!(sim.set_activation(7, &vec![0.5; n]).is_err());
 }
+
+// The kernel's antipode reuse (a fibre diametrically opposite the one two places before takes
+// that fibre's offsets and q with the sign flipped): the pairs are the expected ones (LM2/LM0,
+// LM3/LM1 and the third and fourth fibre of each oblique group), and the kernel's loads equal
+// those computed anew for every fibre (antipodes cleared) to the last bit, on a deformed state
+// with random activations — negation is exact, so any other difference is a bug.
+#[test]
+fn antipode_reuse_is_bit_identical() {
+    let (model, _) = StraightRod::coomm_arm().build().unwrap();
+    let n = model.n_elements;
+    let mm = MuscleModel::new(MuscleSpec::coomm(), &model).unwrap();
+    let pairs: Vec<(usize, usize)> = mm
+        .members
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| m.antipode.map(|p| (i, p)))
+        .collect();
+    assert_eq!(pairs, [(3, 1), (4, 2), (7, 5), (8, 6), (11, 9), (12, 10)]);
+    let mut plain = mm.clone();
+    for m in &mut plain.members {
+        m.antipode = None;
+    }
+    let s = deformed_state(&model);
+    let act = random_activations(n);
+    let bare = loads(&model, None, &act, &s);
+    let (n1, t1) = kernel(&mm, &bare, &act);
+    let (n2, t2) = kernel(&plain, &bare, &act);
+    assert!(n1.iter().any(|v| norm(*v) > 0.0));
+    for j in 0..n {
+        for k in 0..3 {
+            assert_eq!(n1[j][k].to_bits(), n2[j][k].to_bits(), "force {j} {k}");
+        }
+    }
+    for j in 0..n - 1 {
+        for k in 0..3 {
+            assert_eq!(t1[j][k].to_bits(), t2[j][k].to_bits(), "couple {j} {k}");
+        }
+    }
+}

@@ -114,6 +114,13 @@ pub fn read_array(obj: &Bound<'_, PyAny>, field: &str, expected: &[usize]) -> Py
     Ok(values)
 }
 
+/// Read an array-like of any shape (float64, finite): its shape and row-major entries.
+pub fn read_any(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<(Vec<usize>, Vec<f64>)> {
+    let (shape, values) = as_f64_array(obj, field)?;
+    check_finite(field, &shape, &values)?;
+    Ok((shape, values))
+}
+
 /// Read a 1-D array-like of any length (float64, finite).
 pub fn read_vector(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Vec<f64>> {
     let (shape, values) = as_f64_array(obj, field)?;

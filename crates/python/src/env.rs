@@ -66,6 +66,32 @@ struct Config {
     activation_time: f64,
 }
 
+/// The segment (of `n_segments`) that interior point `k` (of `n_interior`) belongs to: the
+/// points are split in order into `n_segments` nearly equal runs.
+fn segment_of(k: usize, n_segments: usize, n_interior: usize) -> usize {
+    k * n_segments / n_interior
+}
+
+/// Tip [x, y] of the rest shape of `sim`'s rod (clamped at the origin along +x) whose in-plane
+/// rest curvature at interior point k is `curvature[segment_of(k)]` [1/m]: successive elements
+/// turn by κ D̂ (rest Voronoi length D̂), which is the shape the arm settles to when a command is
+/// held, as no other load acts on it.
+fn rest_tip(sim: &Simulation, curvature: &[f64]) -> [f64; 2] {
+    let model = &sim.system.rod(0).model;
+    let n_interior = model.rest_voronoi_length.len();
+    let (mut angle, mut tip) = (0.0_f64, [0.0_f64; 2]);
+    for (e, &l) in model.rest_length.iter().enumerate() {
+        if e > 0 {
+            let k = e - 1;
+            angle += curvature[segment_of(k, curvature.len(), n_interior)]
+                * model.rest_voronoi_length[k];
+        }
+        tip[0] += l * angle.cos();
+        tip[1] += l * angle.sin();
+    }
+    tip
+}
+
 impl Arm {
     /// One control period (`run_period`); if the stability guard stops it, the arm is put back
     /// to its state at the start of the period and the guard's error returned.
@@ -108,7 +134,7 @@ impl Arm {
             }
             // The rest curvatures in force live in the system (one rod: same indexing).
             for (k, kappa) in self.sim.system.rest_kappa.iter_mut().enumerate() {
-                kappa[1] = self.curvature[k * cfg.n_segments / n_interior];
+                kappa[1] = self.curvature[segment_of(k, cfg.n_segments, n_interior)];
             }
             self.sim.step()?;
         }
@@ -412,6 +438,32 @@ impl ArmBatch {
     #[getter]
     fn steps_per_action(&self) -> u64 {
         self.cfg.steps_per_action
+    }
+
+    /// Tips [m] of the arm's rest shapes under commands (k, action_dim) in [−1, 1] (clipped, as
+    /// actions; any real dtype, finite): where the tip settles when a command is held, as no
+    /// other load acts on the arm. Returns (k, 2) float64. Used to draw reachable targets.
+    fn rest_tips<'py>(
+        &self,
+        py: Python<'py>,
+        commands: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let m = self.cfg.n_segments;
+        let k = commands.len()?;
+        let c = read_array(commands, "commands", &[k, m])?;
+        let arms = lock(py, &self.arms);
+        let sim = &arms[0].initial;
+        let mut out = Array2::<f64>::zeros((k, 2));
+        let mut curvature = vec![0.0; m];
+        for (row, cmd) in c.chunks(m).enumerate() {
+            for (dst, a) in curvature.iter_mut().zip(cmd) {
+                *dst = a.clamp(-1.0, 1.0) * self.cfg.max_curvature;
+            }
+            let tip = rest_tip(sim, &curvature);
+            out[[row, 0]] = tip[0];
+            out[[row, 1]] = tip[1];
+        }
+        Ok(out.into_pyarray(py))
     }
 
     /// Reset the arms `indices` (default: all; distinct, in [0, n_envs − 1]) to rest with the

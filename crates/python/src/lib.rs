@@ -7,7 +7,9 @@
 //! Modules: `arrays` (NumPy conversion and shape checks), `system` (the rod-system description
 //! classes `Rod`, `Motion`, `Joint`), `rod` (`Simulation`: one rod or a system of rods, its
 //! state, loads, damping, rest strains and pickling), `control` (solver, design, energy-shaping
-//! law), `env` (`ArmBatch`), `scenario` (`run_scenario`), `sweep` (`Sweep`: a parameter
+//! law), `env` (`ArmBatch`), `muscle` (COOMM's muscular arm: `MuscleDesign`,
+//! `MuscleShapingController`), `muscle_env` (`MuscleBatch`, the physics of
+//! `octoarm/MuscleReach3D-v0`), `scenario` (`run_scenario`), `sweep` (`Sweep`: a parameter
 //! sweep's plan and folder, for `octoarm.sweep`).
 
 // `octoarm_physics::StepError` (≥ 128 bytes: it names the rod and carries advice) is passed
@@ -23,6 +25,8 @@ use std::sync::{Mutex, MutexGuard, PoisonError};
 mod arrays;
 mod control;
 mod env;
+mod muscle;
+mod muscle_env;
 mod rod;
 mod scenario;
 mod sweep;
@@ -106,6 +110,9 @@ fn _octoarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<control::OfflineSolver>()?;
     m.add_class::<control::EnergyShapingController>()?;
     m.add_class::<env::ArmBatch>()?;
+    m.add_class::<muscle::MuscleDesign>()?;
+    m.add_class::<muscle::MuscleShapingController>()?;
+    m.add_class::<muscle_env::MuscleBatch>()?;
     m.add_class::<sweep::Sweep>()?;
     m.add_function(wrap_pyfunction!(rod::rust_step_rate, m)?)?;
     m.add_function(wrap_pyfunction!(rod::simulation_from_bytes, m)?)?;

@@ -388,6 +388,54 @@ impl Simulation {
         Ok(Self::from_inner(inner))
     }
 
+    /// COOMM's muscular arm (muscles-3d spec §1): 0.2 m, tapered 24 → 2.4 mm, E = 10 kPa, in
+    /// the COOMM frame (along +x, d1 = −e_z), clamped at the origin, with its seven muscle
+    /// groups (thirteen fibres, cubic force–length curve), Morison drag (`drag`, §3.1) and the
+    /// `coomm` damping preset (`damping`, §3.2); `n_elements` ≥ 4 (default 100), time step `dt`
+    /// [s] (default 1e-5). Drive it with `set_activations` or a `MuscleShapingController`.
+    #[staticmethod]
+    #[pyo3(signature = (dt = 1.0e-5, n_elements = 100, drag = true, damping = true))]
+    fn coomm_arm(dt: f64, n_elements: i64, drag: bool, damping: bool) -> PyResult<Self> {
+        let n = check_count("n_elements", n_elements, 4)?;
+        Ok(Self::from_inner(crate::muscle::coomm_simulation(
+            n, dt, drag, damping,
+        )?))
+    }
+
+    /// Set the muscle activations (7, n) in [0, 1], group-major (row g = group g of
+    /// `octoarm.MUSCLE_GROUPS`), held until changed. Only for a muscular arm (`coomm_arm`).
+    fn set_activations(&self, py: Python<'_>, activations: &Bound<'_, PyAny>) -> PyResult<()> {
+        let r = self.only_rod("set_activations")?;
+        let n = self.rod_elements(r);
+        let a = crate::muscle::read_activations(activations, "activations", n)?;
+        let mut s = self.lock(py);
+        if s.system.rod(r).muscles.is_none() {
+            return Err(PyValueError::new_err(
+                "this simulation has no muscles: build it with Simulation.coomm_arm()",
+            ));
+        }
+        for g in 0..phys::N_GROUPS {
+            s.set_activation(g, &a[g * n..(g + 1) * n])
+                .map_err(model_error)?;
+        }
+        Ok(())
+    }
+
+    /// The muscle activations in force (7, n), group-major (zeros if none were set).
+    #[getter]
+    fn activations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let r = self.only_rod("activations")?;
+        let n = self.rod_elements(r);
+        let a: Vec<f64> = {
+            let s = self.lock(py);
+            let e0 = s.system.rod(r).offsets().element;
+            (0..phys::N_GROUPS)
+                .flat_map(|g| s.actuation.group_activation(g)[e0..e0 + n].to_vec())
+                .collect()
+        };
+        Ok(crate::muscle::activation_array(py, &a, n))
+    }
+
     /// A system of rods (a sequence of `Rod`, names unique) joined by `joints` (a sequence of
     /// `Joint`), at rest in the rods' initial shapes at t = 0, undamped, time step `dt` [s].
     #[staticmethod]

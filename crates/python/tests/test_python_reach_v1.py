@@ -6,6 +6,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.utils import seeding
 from gymnasium.utils.env_checker import check_env
 
 import octoarm  # noqa: F401
@@ -98,6 +99,7 @@ def test_increment_commands_accumulate_clip_and_hold():
     ({"success_radius": 0.0}, r"success_radius = 0.0 is outside the allowed range \(0, 0.2\]"),
     ({"success_radius": float("nan")}, r"success_radius = nan is outside"),
     ({"observe_error": 1}, r"observe_error = 1 must be True or False"),
+    ({"targets": "anywhere"}, r"targets = 'anywhere' is not one of 'sector', 'reachable'"),
 ])
 def test_bad_task_options_are_refused(kwargs, words):
     with pytest.raises(ValueError, match=words):
@@ -115,6 +117,53 @@ def test_increment_actions_are_checked():
         a = np.zeros((2, 4))
         a[1, 2] = np.nan
         env.step(a)
+
+
+def test_rest_tips_are_where_a_held_command_settles():
+    # The closed-form rest shape against the simulated arm: hold each command (absolute
+    # actions) for 12 s from rest and compare the settled tip.
+    rng = np.random.default_rng(7)
+    cmds = np.vstack([np.zeros(4), np.full(4, 1.0), rng.uniform(-1, 1, (4, 4))])
+    batch = octoarm.ArmBatch(n_envs=len(cmds), control_period=0.05, damping_rate=5.0)
+    tips = batch.rest_tips(cmds)
+    assert tips.shape == (len(cmds), 2)
+    np.testing.assert_allclose(tips[0], [0.2, 0.0], atol=1e-15)  # straight arm
+    # All segments at 20 1/m: 19 equal turns of 0.2 rad between 20 chords of 1 cm.
+    turns = np.arange(20) * 0.2
+    np.testing.assert_allclose(tips[1], 0.01 * np.array([np.cos(turns).sum(), np.sin(turns).sum()]),
+                               rtol=1e-12)
+    batch.reset(tips)
+    for _ in range(240):
+        obs, _, distance, failures = batch.step(cmds)
+    assert all(f is None for f in failures)
+    assert distance.max() < 2e-5, distance
+    # Commands are clipped to [-1, 1] as actions are; shape and finiteness are checked.
+    np.testing.assert_array_equal(batch.rest_tips(np.full((1, 4), 3.0)), tips[1:2])
+    with pytest.raises(ValueError, match=r"commands has shape \(1, 3\), expected \(1, 4\)"):
+        batch.rest_tips(np.zeros((1, 3)))
+    with pytest.raises(ValueError, match=r"commands must be finite"):
+        batch.rest_tips(np.array([[0.0, np.inf, 0.0, 0.0]]))
+
+
+def test_v1_targets_are_reachable_and_v0_targets_stay_in_the_sector():
+    env = gym.make("octoarm/ArmReach-v1").unwrapped
+    batch = env._batch
+    for seed in range(5):
+        env.reset(seed=seed)
+        # The environment's draw: a command in [-0.9, 0.9]^4 from np_random, its rest tip.
+        cmd = seeding.np_random(seed)[0].uniform(-0.9, 0.9, size=(1, 4))
+        np.testing.assert_array_equal(env.target, batch.rest_tips(cmd)[0])
+    # The vector env draws arm i's targets from its own generator (seed + i), as `sync` does.
+    vec = ArmReachVectorEnv(num_envs=4, **V1_TASK)
+    vec.reset(seed=3)
+    for i in range(4):
+        cmd = seeding.np_random(3 + i)[0].uniform(-0.9, 0.9, size=(1, 4))
+        np.testing.assert_array_equal(vec.targets[i], batch.rest_tips(cmd)[0])
+    v0 = ArmReachVectorEnv(num_envs=16)
+    v0.reset(seed=5)
+    r = np.linalg.norm(v0.targets, axis=1)
+    assert np.all((r >= 0.08) & (r <= 0.18))
+    assert np.all(np.abs(np.arctan2(v0.targets[:, 1], v0.targets[:, 0])) <= np.pi / 3)
 
 
 def _rollout_v1(vec, steps=30):

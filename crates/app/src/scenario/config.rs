@@ -435,16 +435,113 @@ pub struct ScheduleConfig {
 
 /// `[time]`: the time step and how long and how often to record.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "TimeToml", into = "TimeToml")]
 pub struct TimeConfig {
-    /// Time step Δt [s], > 0 (the only copy of dt; the stepper gets it from here).
+    /// Time step Δt [s], > 0 (the only copy of dt; the stepper gets it from here). With
+    /// `dt = "auto"` in the file, the value chosen when the scenario was loaded.
     pub dt: f64,
+    /// `dt = "auto"`: dt is `AUTO_DT_FRACTION` (0.2) of the system's stable limit, rounded down
+    /// to divide the shortest sampling interval, and the guard re-checks it against the limit
+    /// of the deformed state (`octoarm_physics::auto_dt`).
+    pub auto_dt: bool,
     /// Simulated duration [s], ≥ dt; rounded to a whole number of steps.
     pub duration: f64,
     /// Simulated time between recorded frames [s], ≥ dt; default 1e-3 s. Rounded to a whole
     /// number of steps; t = 0 and the final state are always recorded.
+    pub save_interval: f64,
+}
+
+/// `time.dt` as written: seconds or the word "auto".
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DtToml {
+    /// A time step in seconds.
+    Seconds(f64),
+    /// `"auto"`.
+    Auto,
+}
+
+impl Serialize for DtToml {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Seconds(v) => s.serialize_f64(*v),
+            Self::Auto => s.serialize_str("auto"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for DtToml {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = DtToml;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a time step in seconds (e.g. 1.0e-5) or \"auto\"")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<DtToml, E> {
+                Ok(DtToml::Seconds(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<DtToml, E> {
+                Ok(DtToml::Seconds(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<DtToml, E> {
+                Ok(DtToml::Seconds(v as f64))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<DtToml, E> {
+                if v == "auto" {
+                    Ok(DtToml::Auto)
+                } else {
+                    Err(E::custom(format!(
+                        "time.dt = \"{v}\" is not allowed: write a time step in seconds \
+                         (> 0, e.g. 1.0e-5) or \"auto\" (0.2 × the stable limit)"
+                    )))
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// `[time]` as written in the file (see `TimeConfig`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeToml {
+    /// Seconds, or "auto".
+    pub dt: DtToml,
+    /// Simulated duration [s].
+    pub duration: f64,
+    /// Simulated time between recorded frames [s].
     #[serde(default = "default_save_interval")]
     pub save_interval: f64,
+}
+
+impl TryFrom<TimeToml> for TimeConfig {
+    type Error = String;
+    fn try_from(t: TimeToml) -> Result<Self, String> {
+        let (dt, auto_dt) = match t.dt {
+            DtToml::Seconds(dt) => (dt, false),
+            DtToml::Auto => (0.0, true),
+        };
+        Ok(Self {
+            dt,
+            auto_dt,
+            duration: t.duration,
+            save_interval: t.save_interval,
+        })
+    }
+}
+
+impl From<TimeConfig> for TimeToml {
+    fn from(t: TimeConfig) -> Self {
+        Self {
+            dt: if t.auto_dt {
+                DtToml::Auto
+            } else {
+                DtToml::Seconds(t.dt)
+            },
+            duration: t.duration,
+            save_interval: t.save_interval,
+        }
+    }
 }
 
 /// How damping is integrated.

@@ -133,6 +133,17 @@ impl Scenario {
         let mut config: ScenarioConfig = toml::from_str(source)
             .map_err(|e| err(e.span(), toml_errors::explain_toml_error(source, &e)))?;
         let notes = config.resolve();
+        if config.time.auto_dt {
+            // Validate everything else with a provisional dt that every interval check accepts.
+            let d = config.time.duration;
+            let d = (d.is_finite() && d > 0.0).then_some(d);
+            config.time.dt = config
+                .auto_dt_interval()
+                .into_iter()
+                .chain(d)
+                .min_by(f64::total_cmp)
+                .unwrap_or(1.0);
+        }
         config
             .validate()
             .map_err(|bad| err(key_span(source, &bad.key), bad.to_string()))?;
@@ -140,12 +151,41 @@ impl Scenario {
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "scenario".into());
-        Ok(Self {
+        let mut scn = Self {
             path: path.to_path_buf(),
             name,
             config,
             notes,
             source: source.to_string(),
+        };
+        if scn.config.time.auto_dt {
+            scn.resolve_auto_dt()?;
+        }
+        Ok(scn)
+    }
+
+    /// `dt = "auto"`: build the system, take `AUTO_DT_FRACTION` of its stable limit rounded
+    /// down to divide the shortest sampling interval, and validate again with that dt.
+    fn resolve_auto_dt(&mut self) -> Result<(), ScenarioError> {
+        let (system, _) = crate::build::build_system(self)?;
+        let limit = system.stable_dt();
+        let interval = self.config.auto_dt_interval().unwrap_or(f64::NAN);
+        let Some(dt) = octoarm_physics::auto_dt(limit, interval) else {
+            return Err(self.error_at(
+                "time.dt",
+                format!(
+                    "time.dt = \"auto\": the stable time step of this system is {limit:.3e} s, \
+                     so no automatic time step exists; check youngs_modulus, shear_modulus, \
+                     density, the diameters and contact stiffness"
+                ),
+            ));
+        };
+        self.config.time.dt = dt;
+        let source = &self.source;
+        self.config.validate().map_err(|bad| ScenarioError {
+            file: self.path.clone(),
+            line: key_span(source, &bad.key).map(|s| line_col(source, s.start)),
+            message: format!("{bad} (with the automatic time step dt = {dt:e} s)"),
         })
     }
 
@@ -271,6 +311,23 @@ impl ScenarioConfig {
             }
         }
         notes
+    }
+
+    /// The interval the automatic time step divides: the shortest of the recording interval
+    /// and the controller's sampling, update and ramp intervals [s] (None if none is finite
+    /// and positive).
+    pub fn auto_dt_interval(&self) -> Option<f64> {
+        let mut all = vec![self.time.save_interval];
+        if let Some(c) = &self.controller {
+            all.push(c.series_interval);
+        }
+        if let Some(sv) = &self.solver {
+            all.extend(sv.update_interval);
+            all.extend(sv.ramp_interval);
+        }
+        all.into_iter()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .min_by(f64::total_cmp)
     }
 
     /// Number of steps of the run: duration / dt rounded to the nearest integer (at least 1).

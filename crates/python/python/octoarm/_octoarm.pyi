@@ -20,6 +20,9 @@ __all__ = [
     "InstabilityError",
     "Joint",
     "Motion",
+    "MuscleBatch",
+    "MuscleDesign",
+    "MuscleShapingController",
     "OfflineSolver",
     "Rod",
     "Simulation",
@@ -181,6 +184,13 @@ class Simulation:
     ) -> Simulation: ...
     @staticmethod
     def paper_arm(dt: float = 1e-05, n_elements: int = 100) -> Simulation: ...
+    @staticmethod
+    def coomm_arm(
+        dt: float = 1e-05, n_elements: int = 100, drag: bool = True, damping: bool = True
+    ) -> Simulation: ...
+    def set_activations(self, activations: npt.ArrayLike) -> None: ...
+    @property
+    def activations(self) -> _F64: ...
     @staticmethod
     def from_rods(
         rods: Sequence[Rod],
@@ -393,6 +403,7 @@ class ArmBatch:
     def control_period(self) -> float: ...
     @property
     def steps_per_action(self) -> int: ...
+    def rest_tips(self, commands: npt.ArrayLike) -> _F64: ...
     def reset(self, targets: npt.ArrayLike, indices: Sequence[int] | None = None) -> _F32: ...
     def step(
         self, actions: npt.ArrayLike
@@ -401,6 +412,94 @@ class ArmBatch:
     def render(
         self, index: int, width: int = 400, height: int = 400
     ) -> npt.NDArray[np.uint8]: ...
+
+@final
+class MuscleDesign:
+    """Statics and SE(3) reach design of COOMM's muscular arm. Thread-safe (serialised)."""
+
+    def __new__(cls, n_elements: int = 100) -> MuscleDesign: ...
+    @property
+    def n_elements(self) -> int: ...
+    def equilibrium(self, activations: npt.ArrayLike) -> dict[str, Any]: ...
+    def coomm_orientation(
+        self, target: _Vec3, rolled: bool = False
+    ) -> tuple[_F64, list[float]]: ...
+    def solve(
+        self,
+        target: _Vec3,
+        orientation: npt.ArrayLike | None = None,
+        orientation_weights: _Vec3 | None = None,
+        position_weight: float = 1e6,
+        orientation_weight: float = 1e3,
+        initial: npt.ArrayLike | None = None,
+        groups: Sequence[bool] | None = None,
+        max_iterations: int = 2000,
+        stop_when: tuple[float, float, float] | None = None,
+    ) -> tuple[_F64, dict[str, Any]]: ...
+
+@final
+class MuscleShapingController:
+    """Hold designed activations with COOMM's ramp. Thread-safe (serialised)."""
+
+    def __new__(
+        cls,
+        activations: npt.ArrayLike,
+        ramp: float = 1.0,
+        period: float = 0.002,
+        target: _Vec3 | None = None,
+    ) -> MuscleShapingController: ...
+    def factor(self, t: float) -> float: ...
+    @property
+    def activations(self) -> _F64: ...
+    def step(self, sim: Simulation, n: int = 1) -> None: ...
+
+@final
+class MuscleBatch:
+    """The physics of octoarm/MuscleReach3D-v0. Thread-safe: calls are serialised."""
+
+    def __new__(
+        cls,
+        n_envs: int = 1,
+        n_elements: int = 20,
+        n_segments: int = 4,
+        control_period: float = 0.05,
+        dt: float = 5e-05,
+        activation_time: float = 0.05,
+        effort_weight: float = 0.01,
+        orientation_weight: float = 0.1,
+        num_threads: int | None = None,
+    ) -> MuscleBatch: ...
+    @property
+    def n_envs(self) -> int: ...
+    @property
+    def n_elements(self) -> int: ...
+    @property
+    def n_segments(self) -> int: ...
+    @property
+    def obs_dim(self) -> int: ...
+    @property
+    def action_dim(self) -> int: ...
+    @property
+    def length(self) -> float: ...
+    @property
+    def control_period(self) -> float: ...
+    @property
+    def steps_per_action(self) -> int: ...
+    def observation_bounds(self) -> tuple[_F32, _F32]: ...
+    def reachable_pose(self, activations: npt.ArrayLike) -> tuple[_F64, _F64]: ...
+    def reset(
+        self,
+        positions: npt.ArrayLike,
+        orientations: npt.ArrayLike,
+        indices: Sequence[int] | None = None,
+    ) -> _F32: ...
+    def step(
+        self, actions: npt.ArrayLike
+    ) -> tuple[_F32, _F64, _F64, _F64, list[InstabilityError | None]]: ...
+    def render(
+        self, index: int, width: int = 800, height: int = 400
+    ) -> npt.NDArray[np.uint8]: ...
+    def simulation(self, index: int) -> Simulation: ...
 
 def rust_step_rate(sim: Simulation, steps: int) -> float: ...
 def _simulation_from_bytes(data: bytes) -> Simulation: ...

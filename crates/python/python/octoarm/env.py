@@ -43,7 +43,8 @@ by default), clamped at the origin along +x, bending in the x-y plane.
   state the guard passed). Reset before stepping again.
 
 **Task options** (keyword arguments of both environments; ``octoarm/ArmReach-v1`` sets
-``reward="reach", observe_error=True, action="increment"``; v0 keeps the defaults):
+``reward="reach", observe_error=True, action="increment", targets="reachable",
+control_period=0.05, damping_rate=5``; v0 keeps the defaults):
 
 * ``reward``: ``"distance"`` (the v0 reward above) or ``"reach"``, a reward whose last
   millimetres carry signal: ``r = -d / L0 + exp(-d / 1 cm) - effort_weight * mean(a**2)``
@@ -57,6 +58,17 @@ by default), clamped at the origin along +x, bending in the x-y plane.
   action moves the command, ``cmd <- clip(cmd + 0.1 * clip(a, -1, 1), -1, 1)``, starting from
   0 at reset; the command is what the arm receives, the effort term and the "last action"
   slots of the observation hold it. A policy can then hold a pose with a = 0.
+* ``targets``: ``"sector"`` (v0: radius 0.08-0.18 m, angle +-60 deg) or ``"reachable"``: the
+  tip of the arm's rest shape under a command drawn uniformly from [-0.9, 0.9] per segment
+  (``ArmBatch.rest_tips``), so every target can be reached exactly by holding a command inside
+  the action range. About a third of the sector's targets cannot be reached within 1 cm by any
+  command of 4 segments at 20 1/m (a static optimisation over commands finds 64 % within 1 cm):
+  no policy could reach 80 % of them.
+* ``damping_rate`` (an ``ArmBatch`` argument, 10 1/s in v0): v1 uses 5 1/s. At 10 1/s the first
+  bending mode is overdamped and creeps: holding the exact command of a reachable target from
+  rest leaves the tip 1.8 cm away (median) after 2 s; at 5 1/s (near critical), ramping the
+  command there at the increment limit leaves it 1 mm away (median; all within 5 mm), so a 2 s
+  episode can end at the target.
 * ``success_radius`` [m] (default 0.01 = 5 % of L0): ``info["is_success"]`` is
   ``tip_distance <= success_radius`` after every step (SB3 counts it at episode end).
 
@@ -189,14 +201,21 @@ V1_TASK: dict[str, Any] = {
     "reward": "reach",
     "observe_error": True,
     "action": "increment",
+    "targets": "reachable",
     "control_period": 0.05,
+    "damping_rate": 5.0,
 }
 """Keyword arguments of ``octoarm/ArmReach-v1``: the reach reward, the error observed,
-incremental commands, one environment step = 50 ms."""
+incremental commands, reachable targets, one environment step = 50 ms, damping near critical
+for the first bending mode (the arm settles within the 2 s episode)."""
 V1_EPISODE_STEPS = 40
 """Episode length of the v1 environments: 40 steps of 50 ms = 2 s, as v0's 200 of 10 ms."""
 
 REWARDS = ("distance", "reach")
+TARGETS = ("sector", "reachable")
+TARGET_COMMAND = 0.9
+"""``targets="reachable"``: targets are the rest-shape tips of commands drawn uniformly from
+``[-TARGET_COMMAND, TARGET_COMMAND]`` per segment (a 10 % margin inside the command range)."""
 ACTIONS = ("absolute", "increment")
 INCREMENT = 0.1
 """Largest change of a command per environment step with ``action="increment"``."""
@@ -224,7 +243,12 @@ class _Task:
         action: str,
         success_radius: float,
         effort_weight: float,
+        targets: str = "sector",
     ) -> None:
+        if targets not in TARGETS:
+            raise ValueError(
+                f"targets = {targets!r} is not one of {', '.join(map(repr, TARGETS))}"
+            )
         if reward not in REWARDS:
             raise ValueError(f"reward = {reward!r} is not one of {', '.join(map(repr, REWARDS))}")
         if action not in ACTIONS:
@@ -237,6 +261,8 @@ class _Task:
                 f"success_radius = {success_radius!r} is outside the allowed range "
                 f"(0, {batch.length}] m"
             )
+        self.batch = batch
+        self.targets = targets
         self.reward = reward
         self.observe_error = bool(observe_error)
         self.action = action
@@ -270,6 +296,14 @@ class _Task:
         err = obs[:, 4 * n : 4 * n + 2] - obs[:, 2 * (n - 1) : 2 * n]
         err = np.clip(err, -ERROR_BOUND, ERROR_BOUND).astype(np.float32)
         return np.concatenate([obs, err], axis=1)
+
+    def sample_targets(self, rng: np.random.Generator, k: int) -> FloatArray:
+        """``k`` targets [m] drawn from ``rng``: in the sector (radius 0.08-0.18 m, angle
+        +-60 deg; v0), or the rest-shape tips of random commands (``"reachable"``)."""
+        if self.targets == "sector":
+            return _sample_targets(rng, k)
+        cmd = rng.uniform(-TARGET_COMMAND, TARGET_COMMAND, size=(k, self.command.shape[1]))
+        return np.asarray(self.batch.rest_tips(cmd))
 
     def reset(self, indices: Sequence[int]) -> None:
         self.command[list(indices)] = 0.0
@@ -305,6 +339,7 @@ def _task_args(config: dict[str, Any]) -> dict[str, Any]:
         "observe_error": config.pop("observe_error", False),
         "action": config.pop("action", "absolute"),
         "success_radius": config.pop("success_radius", 0.01),
+        "targets": config.pop("targets", "sector"),
         "effort_weight": config.get("effort_weight", 0.01),
     }
 
@@ -353,7 +388,7 @@ class ArmReachEnv(gym.Env[Array, Array]):
         if "target" in options:
             self.target = _real_array(options["target"], "target", (2,))
         else:
-            self.target = _sample_targets(self.np_random, 1)[0]
+            self.target = self._task.sample_targets(self.np_random, 1)[0]
         self._task.reset([0])
         obs = self._task.observe(self._batch.reset(self.target[None, :]))
         return obs[0], {}
@@ -478,7 +513,7 @@ class ArmReachVectorEnv(VectorEnv[Array, Array, Array]):
                 self._arm_rngs[i], _ = seeding.np_random(int(s))
         rows = []
         for i, t in zip(indices, targets):
-            rows.append(t if t is not None else _sample_targets(self._arm_rng(i), 1)[0])
+            rows.append(t if t is not None else self._task.sample_targets(self._arm_rng(i), 1)[0])
         idx = list(indices)
         if idx:
             new = np.array(rows, dtype=np.float64).reshape(len(idx), 2)
