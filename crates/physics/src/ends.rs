@@ -295,15 +295,73 @@ pub struct End {
     pub position: Vec3,
     /// Initial frame of the end element (held, or the start of a motion).
     pub frame: Mat3,
+    /// Initial frame at the end node itself: `frame` turned back over the half element between
+    /// the element's centre and the node by the curvature of the nearest Voronoi point. The
+    /// second-order clamp's ghost frame Q_c (held, or the start of a motion); equal to `frame`
+    /// for a rod that starts straight near this end.
+    pub node_frame: Mat3,
 }
 
 impl End {
-    /// The end at its initial pose.
+    /// The end at its initial pose, with the end node's frame equal to the end element's.
     pub fn new(condition: EndCondition, position: Vec3, frame: Mat3) -> Self {
         Self {
             condition,
             position,
             frame,
+            node_frame: frame,
+        }
+    }
+
+    /// The end at the initial pose of `side` of a rod with `model` and `state`: the end node's
+    /// position, the end element's frame, and the frame at the node extrapolated from the end
+    /// element's over half its rest length with the initial curvature κ of the nearest Voronoi
+    /// point held constant (second-order accurate in the element length; a rod of one element
+    /// has no Voronoi point and keeps the element's frame). Why: the ghost spring of
+    /// `clamp_order = 2` sits between the clamp and the end element's centre, so the clamp must
+    /// hold the frame the rod has at the node. Holding the element's frame instead tilts the
+    /// clamp by κ l̂/2: a clamp that bends a rod started curved, or one started in its curved rest
+    /// shape out of equilibrium.
+    pub fn at_rod_end(
+        condition: EndCondition,
+        side: Side,
+        model: &crate::model::RodModel,
+        state: &crate::state::RodState,
+    ) -> Self {
+        let n = model.n_elements;
+        let j = side.element(n);
+        let frame = state.director[j];
+        let mut end = Self::new(condition, state.position[side.node(n)], frame);
+        if n >= 2 {
+            let k = match side {
+                Side::Base => 0,
+                Side::Tip => n - 2,
+            };
+            // κ_k = −Log(Q_{k+1} Q_kᵀ)/D̂_k; the ghost gives −Log(Q_0 Q_cᵀ)/(l̂_0/2) at the base
+            // and −Log(Q_c Q_{n−1}ᵀ)/(l̂_{n−1}/2) at the tip, equal to κ_k when
+            // Q_c = exp(−f Θ) Q_0 (base) or exp(f Θ) Q_{n−1} (tip), Θ = Log(Q_{k+1} Q_kᵀ).
+            let (theta, _) = crate::math::log_relative(&state.director[k + 1], &state.director[k]);
+            let f = 0.5 * model.rest_length[j] * model.inv_rest_voronoi[k];
+            let sign = match side {
+                Side::Base => -f,
+                Side::Tip => f,
+            };
+            let turn = rotation_matrix([sign * theta[0], sign * theta[1], sign * theta[2]]);
+            end.node_frame = crate::math::mat_mul(&turn, &frame);
+        }
+        end
+    }
+
+    /// The frame the end node must have at time t (the second-order clamp's ghost frame): the
+    /// initial `node_frame`, turned by the motion for a driven end.
+    #[inline]
+    pub fn node_frame_at(&self, t: f64) -> Mat3 {
+        match &self.condition {
+            EndCondition::Driven(m) => {
+                let (_, r) = m.at(t);
+                mat_mul_t(&self.node_frame, &rotation_matrix(r))
+            }
+            _ => self.node_frame,
         }
     }
 

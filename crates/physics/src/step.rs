@@ -624,7 +624,7 @@ fn add_clamp_couples(
             if !end.condition.holds_frame() {
                 continue;
             }
-            let (_, qc) = end.pose(t);
+            let qc = end.node_frame_at(t);
             let j = side.element(n);
             let e = rod.at.element + j;
             let q = state.director.get(e);

@@ -815,19 +815,11 @@ impl SystemBuilder {
                     motion.validate()?;
                 }
             }
-            let pose = |side: Side| {
-                (
-                    spec.state.position[side.node(n)],
-                    spec.state.director[side.element(n)],
-                )
-            };
-            let (bx, bq) = pose(Side::Base);
-            let (tx, tq) = pose(Side::Tip);
             rods.push(Rod {
                 name: spec.name.clone(),
                 model: Arc::clone(m),
-                base: End::new(spec.base.clone(), bx, bq),
-                tip: End::new(spec.tip.clone(), tx, tq),
+                base: End::at_rod_end(spec.base.clone(), Side::Base, m, &spec.state),
+                tip: End::at_rod_end(spec.tip.clone(), Side::Tip, m, &spec.state),
                 damping: spec.damping,
                 muscles: None,
                 at,

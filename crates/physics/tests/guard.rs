@@ -5,14 +5,17 @@
 //! (ii) the paper's arm under a tip force it cannot carry (2e-4 N: the thin tip stretches without
 //! bound) stops with the guard's message at a strain or dilatation near the tip; (iii) the known
 //! model caveat (zig-zag growth of the non-variational default model) is caught and the message
-//! recommends `energy_consistent`, with which the same run stays bounded.
+//! recommends `energy_consistent`, with which the same run stays bounded; (iv) contact-driven
+//! instability (issue 11): contact springs too stiff for the step stop the run with the guard's
+//! message and a dt, counting the contact springs, with which the same run stays finite.
 //!
 //! Independent reference: the stability limit of position Verlet, Δt ω_max < 2 (spec §11); for
 //! (ii) the tension capacity of a shearable rod: an element under tension n3 loses the
 //! shear–rotation restoring couple l̂ δφ (S1 e − n3) when n3 exceeds S1 e, i.e. the tip cannot
 //! carry a tension above about α_c G Â_99 = 1.88e-4 N (spec table) — 2e-4 N is beyond it, while
 //! 1e-4 N is carried with the closed-form static stretch e_99 = 1/(1 − F/(E Â_99)) of the
-//! model's force E Â (e − 1)/e; for (iii) the spec's reproducer.
+//! model's force E Â (e − 1)/e; for (iii) the spec's reproducer; for (iv) the same Verlet limit
+//! with the penalty spring β E Â / l̂ on the end node's mass.
 //!
 //! How a wrong implementation fails: a guard that only checks for NaN lets the caller record
 //! astronomically large but finite states; one that checks too rarely returns NaN states to a
@@ -243,4 +246,73 @@ fn known_model_caveat_is_caught_and_energy_consistent_stays_bounded() {
         assert!(advice.contains("energy_consistent"), "{msg}");
     }
     caveat_run(true, ac, 3e-4).expect("energy_consistent run must stay bounded");
+}
+
+// (iv) Contact-driven instability (issue 11): a rod dropped 1 mm onto a floor with contact springs
+// 2000 times the element's axial stiffness (β = 2000), at a dt safe for the rod alone (0.5 of its
+// stable dt) but past the limit with the contact springs (the system's stable dt counts them):
+// the guard stops the run with its message before any non-finite state, suggesting a dt of at
+// most 0.2 × the system's (contact-inclusive) stable dt; at that dt the same drop lands and stays
+// finite for 0.05 s. A guard that ignores contact would let the penetration explode; a stable-dt
+// estimate without the contact springs would suggest a dt that still blows up.
+#[test]
+fn contact_driven_instability_is_caught_with_a_working_dt() {
+    use octoarm_physics::{ContactParams, EndCondition, Friction, Plane};
+    let build = |dt: Option<f64>| {
+        let material = Material {
+            density: 1000.0,
+            youngs_modulus: 1e6,
+            shear_modulus: 1e6 / 3.0,
+            shear_coefficient: Material::DEFAULT_SHEAR_COEFFICIENT,
+        };
+        let mut rod = StraightRod::uniform(50, 0.5, 0.01, material);
+        rod.direction = [1.0, 0.0, 0.0];
+        rod.normal = [0.0, 0.0, 1.0];
+        rod.base_position = [0.0, 0.0, 0.006];
+        let (model, mut state) = rod.build().unwrap();
+        for v in &mut state.velocity {
+            *v = [0.0, 0.0, -0.2];
+        }
+        let rod_dt = 0.5 * model.stable_dt();
+        let mut sim = Simulation::with_ends(
+            model,
+            state,
+            EndCondition::Free,
+            EndCondition::Free,
+            Settings::with_dt(dt.unwrap_or(rod_dt)),
+        )
+        .unwrap();
+        sim.system
+            .add_load(
+                0,
+                Load::Gravity {
+                    acceleration: [0.0, 0.0, -9.81],
+                },
+                Schedule::Constant,
+            )
+            .unwrap();
+        sim.add_plane(Plane::new([0.0; 3], [0.0, 0.0, 1.0], Friction::NONE))
+            .unwrap();
+        sim.set_contact(ContactParams {
+            beta: 2000.0,
+            ..ContactParams::default()
+        })
+        .unwrap();
+        sim
+    };
+    let mut sim = build(None);
+    let stable = sim.system.stable_dt();
+    assert!(
+        sim.settings().dt > stable,
+        "the contact springs should set the limit"
+    );
+    let (err, step) = step_until_unstable(&mut sim, 200_000);
+    let msg = check_message(&err);
+    println!("contact-driven: stopped at step {step}: {msg} (system stable dt {stable:e})");
+    let (_, _, _, _, _, suggested, _) = unpack(&err);
+    assert!(suggested <= 0.2 * stable * (1.0 + 1e-12));
+    let mut ok = build(Some(suggested));
+    ok.run((0.05 / suggested) as u64)
+        .expect("the suggested dt should work");
+    assert!(all_finite(&ok));
 }
