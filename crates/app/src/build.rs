@@ -447,6 +447,8 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
     if let Some(m) = &cfg.muscles {
         add_muscles(scn, m, &mut system)?;
     }
+    // The friction springs of the obstacles (relaxed), part of the state from the first frame.
+    system.fit_stick(&mut state);
     if let Some(init) = &cfg.initial_state {
         initial::apply(scn, init, &system, &mut state)?;
     }

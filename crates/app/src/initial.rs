@@ -1,10 +1,12 @@
 //! `[initial_state]`: a frame of an earlier run's `trajectory.npz` as the initial state of every
 //! rod (positions, velocities, directors, angular velocities), its time and step count, and the
-//! work and dissipation recorded until then, so that a continued run equals the uninterrupted
-//! one. Shapes are checked against the scenario's rods; nothing is reshaped or guessed.
+//! work and dissipation recorded until then, and the friction springs of the obstacles
+//! (`contact_stick`; relaxed when the file has none), so that a continued run equals the
+//! uninterrupted one. Shapes are checked against the scenario's rods and obstacles; nothing is
+//! reshaped or guessed.
 
 use crate::output::{npz_names, read_npz_frame, read_npz_vector};
-use crate::recorder::array_key;
+use crate::recorder::{array_key, STICK_ARRAY};
 use crate::scenario::{fmt_num, InitialStateConfig, Scenario, ScenarioError};
 use octoarm_physics::{RodState, RodSystem, SystemState};
 
@@ -165,6 +167,32 @@ pub fn apply(
                 *dst = value;
             }
         }
+    }
+    let slots = system.stick_slots();
+    if names.iter().any(|n| n == STICK_ARRAY) {
+        let (got, values) = read_npz_frame(&path, STICK_ARRAY, index)
+            .map_err(|e| at("initial_state.file", format!("{e:#}")))?;
+        if got[1..] != [slots, 3] {
+            return Err(at(
+                "initial_state.file",
+                format!(
+                    "`{STICK_ARRAY}` has frames of shape {:?}; this scenario's frictional \
+                     obstacles need [{slots}, 3] (continue a run with the obstacles it had)",
+                    &got[1..]
+                ),
+            ));
+        }
+        if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+            return Err(at(
+                "initial_state.file",
+                format!(
+                    "{}: `{STICK_ARRAY}` of frame {index} holds {}, not a finite number",
+                    path.display(),
+                    fmt_num(*v)
+                ),
+            ));
+        }
+        state.stick = values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     }
     // Continue the step count when the frame lies on this run's step grid from t = 0 (so that
     // t = step · dt is bit-identical and the periodic checks fall on the same steps).

@@ -98,6 +98,11 @@ pub const SERIES: [(&str, &str, &str); 6] = [
     ),
 ];
 
+/// The `.npz` key of the obstacles' friction springs (`SystemState::stick`), per frame
+/// [slots, 3], written when the system has frictional obstacles: what `[initial_state]` needs
+/// to continue a frictional contact exactly.
+pub const STICK_ARRAY: &str = "contact_stick";
+
 /// One frame of the controlled rod kept for the control figures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControlFrame {
@@ -121,6 +126,8 @@ struct RodInfo {
 /// Streams frames of every rod to `trajectory.npz` (and keeps the figures' data).
 pub struct TrajectoryRecorder {
     every: u64,
+    // Stick springs per frame (0: no frictional obstacle, no `contact_stick` member).
+    stick_slots: usize,
     planned: usize,
     multi: bool,
     rods: Vec<RodInfo>,
@@ -197,6 +204,10 @@ impl TrajectoryRecorder {
                 }
             }
         }
+        let stick_slots = system.stick_slots();
+        if stick_slots > 0 {
+            members.push((STICK_ARRAY.to_string(), vec![stick_slots, 3]));
+        }
         let spools = SpooledArray::create_members(
             &out.path(""),
             members.iter().map(|(n, s)| (n.as_str(), s.clone())),
@@ -211,7 +222,7 @@ impl TrajectoryRecorder {
             .collect();
         let worker = std::thread::Builder::new()
             .name("octoarm-writer".into())
-            .spawn(move || write_frames(worker_rods, rx, back, spools))
+            .spawn(move || write_frames(worker_rods, stick_slots, rx, back, spools))
             .context("cannot start the writer thread")?;
         let n_rods = rods.len();
         let nodes: usize = rods.iter().map(|r| r.model.n_elements + 1).sum();
@@ -220,6 +231,7 @@ impl TrajectoryRecorder {
         let max_control = (MAX_KEPT_POINTS / control_nodes).clamp(2, MAX_CONTROL_FRAMES);
         Ok(Self {
             every,
+            stick_slots,
             planned,
             multi,
             controlled,
@@ -402,6 +414,15 @@ impl Recorder for TrajectoryRecorder {
             self.shapes.push((s.time, shape_now));
         }
         buf.extend_from_slice(&series_values);
+        if self.stick_slots > 0 {
+            // The pipeline adds no obstacle during a run, so the springs keep the size they had
+            // when the recorder was made (relaxed ones, should that ever change).
+            if s.stick.len() == self.stick_slots {
+                buf.extend(s.stick.iter().flatten());
+            } else {
+                buf.resize(buf.len() + 3 * self.stick_slots, 0.0);
+            }
+        }
         self.keep_for_plots(s.time, &energies, &tips);
         if let Some(tx) = &self.tx {
             if tx.send(buf).is_err() {
@@ -496,6 +517,14 @@ impl Recorder for TrajectoryRecorder {
                 "final_energies": final_energies(&last),
             }));
         }
+        if self.stick_slots > 0 {
+            arrays.insert(
+                STICK_ARRAY.into(),
+                json!({"shape": [t, self.stick_slots, 3], "unit": "m", "domain": "friction stick \
+                    spring of an obstacle at an element (spheres, planes two per element, \
+                    cylinders; system element order), lab frame"}),
+            );
+        }
         let mut map = Map::new();
         map.insert("frames".into(), json!(t));
         if !self.multi {
@@ -527,6 +556,7 @@ fn final_energies(last: &[f64; 6]) -> Value {
 /// array in member order.
 fn write_frames(
     rods: Vec<(Arc<RodModel>, bool)>,
+    stick_slots: usize,
     rx: Receiver<Vec<f64>>,
     back: mpsc::Sender<Vec<f64>>,
     mut spools: Vec<SpooledArray>,
@@ -607,6 +637,13 @@ fn write_frames(
                 spools[first + 7].push(&buf[at + 3..at + 6])?;
                 at += 6;
             }
+        }
+        if stick_slots > 0 {
+            spools
+                .last_mut()
+                .expect("the stick member is the last")
+                .push(&buf[at..at + 3 * stick_slots])?;
+            at += 3 * stick_slots;
         }
         debug_assert_eq!(at, buf.len());
         let _ = back.send(buf);

@@ -106,23 +106,105 @@ diameter = 0.04
 
 #[test]
 fn a_run_continued_from_a_frame_equals_the_uninterrupted_run_to_the_last_bit() {
+    // Frame 71: t = 71 · 35 steps of 2e-5 s = 0.0497 s, not a multiple of the 100-step guard
+    // interval nor of the 1000-step orthonormality interval.
+    let (full, _) = assert_continuation_is_exact(SCENARIO, 0.0994, 71);
+    assert!(
+        full.len() > 2 * 12,
+        "{} members: both rods' arrays",
+        full.len()
+    );
+}
+
+/// An arm lying on a floor with anisotropic static/kinetic friction and pressed sideways onto a
+/// frictional sphere, pushed along the floor by a ramped tip force: the stick springs of both
+/// obstacles (the contact's memory) are loaded at the restart frame, so dropping them — starting
+/// the continued run with relaxed springs — changes the trajectory.
+const FRICTION: &str = r#"
+[rod]
+n_elements = 30
+length = 0.2
+base_diameter = 0.02
+tip_diameter = 0.004
+density = 700.0
+youngs_modulus = 1.0e4
+shear_modulus = 1.0e3
+base_position = [0.0, 0.0, 0.01]
+
+[time]
+dt = 2.0e-5
+duration = DURATION
+save_interval = 7.0e-4
+
+[numerics]
+clamp_order = 2
+
+[damping]
+rate = 5.0
+
+[[load]]
+kind = "gravity"
+value = [0.0, 0.0, -9.81]
+
+[[load]]
+kind = "tip_force"
+value = [0.0, 3.0e-3, 0.0]
+ramp_time = 0.05
+
+[[plane]]
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+friction = [0.2, 0.4, 0.6]
+kinetic_friction = [0.15, 0.3, 0.5]
+
+[[obstacle]]
+kind = "sphere"
+center = [0.15, 0.025, 0.01]
+diameter = 0.03
+friction = 0.5
+"#;
+
+#[test]
+fn a_frictional_contact_continues_exactly_with_its_stick_springs() {
+    let (full, k) = assert_continuation_is_exact(FRICTION, 0.0994, 71);
+    let (_, stick, shape) = full
+        .iter()
+        .find(|m| m.0 == "contact_stick")
+        .expect("trajectory.npz records the stick springs");
+    let per: usize = shape[1..].iter().product();
+    let loaded = stick[k * per..(k + 1) * per]
+        .iter()
+        .filter(|v| v.abs() > 1e-12)
+        .count();
+    assert!(
+        loaded > 10,
+        "the test needs loaded stick springs at frame {k}: {loaded} of {per} components"
+    );
+}
+
+/// Run `scenario` for `duration`, continue it from frame `k` in a second run, and assert that
+/// every member of the continued `trajectory.npz` equals the uninterrupted run's from frame k
+/// on, bit for bit. Returns the uninterrupted run's members and k.
+#[allow(clippy::type_complexity)]
+fn assert_continuation_is_exact(
+    scenario: &str,
+    duration: f64,
+    k: usize,
+) -> (Vec<(String, Vec<f64>, Vec<usize>)>, usize) {
     let tmp = tempfile::tempdir().unwrap();
     let dir: PathBuf = tmp.path().to_path_buf();
     std::fs::write(
         dir.join("full.toml"),
-        SCENARIO.replace("DURATION", "0.0994"),
+        scenario.replace("DURATION", &format!("{duration}")),
     )
     .unwrap();
     let o = octoarm(&["run", "-q", "full.toml", "--out", "full"], &dir);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let full = members(&dir.join("full/trajectory.npz"));
     let time = &full.iter().find(|m| m.0 == "time").unwrap().1;
-    // Frame 71: t = 71 · 35 steps of 2e-5 s = 0.0497 s, not a multiple of the 100-step guard
-    // interval nor of the 1000-step orthonormality interval.
-    let k = 71;
     let t_k = time[k];
-    let rest = 0.0994 - t_k;
-    let text = SCENARIO.replace("DURATION", &format!("{rest}"))
+    let rest = duration - t_k;
+    let text = scenario.replace("DURATION", &format!("{rest}"))
         + &format!("\n[initial_state]\nfile = \"full/trajectory.npz\"\nframe = {k}\n");
     std::fs::write(dir.join("continued.toml"), text).unwrap();
     let o = octoarm(&["run", "-q", "continued.toml", "--out", "continued"], &dir);
@@ -132,7 +214,7 @@ fn a_run_continued_from_a_frame_equals_the_uninterrupted_run_to_the_last_bit() {
     let frames_full = time.len();
     let frames_cont = cont.iter().find(|m| m.0 == "time").unwrap().1.len();
     assert_eq!(frames_cont, frames_full - k, "frames from k to the end");
-    assert!(full.len() > 2 * 12, "{} members", full.len());
+    assert!(full.len() > 12, "{} members", full.len());
     for (name, data, shape) in &full {
         let (_, c, cshape) = cont
             .iter()
@@ -153,4 +235,5 @@ fn a_run_continued_from_a_frame_equals_the_uninterrupted_run_to_the_last_bit() {
             expected.len()
         );
     }
+    (full, k)
 }

@@ -14,7 +14,9 @@ use crate::model::RodModel;
 use crate::schedule::Schedule;
 use crate::state::{RodState, RodView, SystemState};
 use crate::step::{self, Workspace};
-use crate::system::{RodSpec, RodSystem, Settings, SystemBuilder};
+use crate::system::{
+    RodSpec, RodSystem, Settings, SystemBuilder, AUTO_DT_FRACTION, AUTO_DT_RECHECK,
+};
 use std::sync::Arc;
 
 /// A rod system with its state, actuation and workspace, stepped by the one stepper.
@@ -29,6 +31,11 @@ pub struct Simulation {
     pub actuation: Actuation,
     /// Scratch and the loads of the last force evaluation.
     pub workspace: Workspace,
+    /// The time step is automatic (`use_auto_dt`): while no step has been taken, every step
+    /// re-chooses dt from the system as it is then (obstacles, contact or damping added after
+    /// `use_auto_dt` count).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub auto_dt: bool,
 }
 
 impl Simulation {
@@ -74,7 +81,47 @@ impl Simulation {
             state,
             actuation,
             workspace,
+            auto_dt: false,
         }
+    }
+
+    /// Use the automatic time step: dt = `AUTO_DT_FRACTION` (0.2) of the system's stable limit
+    /// 2/ω̂_max (rods, joints, contact springs), with the guard's re-check armed
+    /// (`Settings::max_dt_fraction = AUTO_DT_RECHECK`: the run stops with the guard's message
+    /// if deformation brings dt above 0.5 of the limit of the deformed state). Until the first
+    /// step, changes to the system re-choose dt. Returns the dt chosen [s]; an error if the
+    /// system has no finite positive stable limit.
+    pub fn use_auto_dt(&mut self) -> Result<f64, ModelError> {
+        self.auto_dt = true;
+        self.choose_auto_dt()
+    }
+
+    /// dt = `AUTO_DT_FRACTION` × the stable limit of the system as it is now.
+    fn choose_auto_dt(&mut self) -> Result<f64, ModelError> {
+        let dt = AUTO_DT_FRACTION * self.system.stable_dt();
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(ModelError::OutOfRange {
+                field: "dt = \"auto\" (0.2 × stable limit)",
+                value: dt,
+                range: "(0, inf): the system has no finite stable time step",
+            });
+        }
+        let settings = Settings {
+            dt,
+            max_dt_fraction: Some(AUTO_DT_RECHECK),
+            ..*self.system.settings()
+        };
+        self.system.set_settings(settings)?;
+        Ok(dt)
+    }
+
+    /// Re-choose an automatic dt if no step has been taken yet (changes to the system since
+    /// `use_auto_dt` count); a no-op otherwise.
+    pub fn refresh_auto_dt(&mut self) -> Result<(), ModelError> {
+        if self.auto_dt && self.state.step == 0 {
+            self.choose_auto_dt()?;
+        }
+        Ok(())
     }
 
     /// The first rod's model.
@@ -125,22 +172,29 @@ impl Simulation {
 
     /// Add a rigid plane.
     pub fn add_plane(&mut self, plane: crate::contact::Plane) -> Result<(), ModelError> {
-        self.system.add_plane(plane)
+        self.system.add_plane(plane)?;
+        self.system.fit_stick(&mut self.state);
+        self.refresh_auto_dt()
     }
 
     /// Add a rigid finite cylinder.
     pub fn add_cylinder(&mut self, cylinder: crate::contact::Cylinder) -> Result<(), ModelError> {
-        self.system.add_cylinder(cylinder)
+        self.system.add_cylinder(cylinder)?;
+        self.system.fit_stick(&mut self.state);
+        self.refresh_auto_dt()
     }
 
     /// Add a rigid sphere obstacle.
     pub fn add_obstacle(&mut self, sphere: Sphere) -> Result<(), ModelError> {
-        self.system.add_obstacle(sphere)
+        self.system.add_obstacle(sphere)?;
+        self.system.fit_stick(&mut self.state);
+        self.refresh_auto_dt()
     }
 
     /// Set the damping of every rod.
     pub fn set_damping(&mut self, damping: Damping) -> Result<(), ModelError> {
-        self.system.set_damping_all(damping)
+        self.system.set_damping_all(damping)?;
+        self.refresh_auto_dt()
     }
 
     /// The first rod's damping.
@@ -150,7 +204,8 @@ impl Simulation {
 
     /// Set the contact penalty parameters.
     pub fn set_contact(&mut self, contact: ContactParams) -> Result<(), ModelError> {
-        self.system.set_contact(contact)
+        self.system.set_contact(contact)?;
+        self.refresh_auto_dt()
     }
 
     /// Replace the first rod's rest strains in force.
@@ -237,8 +292,15 @@ impl Simulation {
         Ok(())
     }
 
-    /// Advance one step.
+    /// Advance one step. With an automatic dt, the first step first re-chooses it
+    /// (`refresh_auto_dt`).
     pub fn step(&mut self) -> Result<(), StepError> {
+        if self.auto_dt && self.state.step == 0 {
+            // The mutators below refresh dt and report a failure; a system changed through its
+            // public fields is refreshed here, and should its limit not be finite the dt chosen
+            // before stays (the guard then reports any instability).
+            let _ = self.refresh_auto_dt();
+        }
         step::step(
             &self.system,
             &mut self.state,

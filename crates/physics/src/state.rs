@@ -74,6 +74,13 @@ pub struct SystemState {
     pub work: Vec<f64>,
     /// Energy removed by damping since t = 0 [J], per rod.
     pub dissipated: Vec<f64>,
+    /// Stick springs of obstacle friction [m]: the tangential displacement held per element
+    /// and frictional obstacle (obstacle-major: spheres, then planes with two per element —
+    /// one at each end node —, then cylinders; system element order). The contact's only
+    /// memory, so part of the state; sized by `RodSystem::fit_stick` (empty without
+    /// frictional obstacles).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub stick: Vec<Vec3>,
 }
 
 impl SystemState {
@@ -89,6 +96,7 @@ impl SystemState {
             omega: Vec3s::default(),
             work: Vec::new(),
             dissipated: Vec::new(),
+            stick: Vec::new(),
         }
     }
 

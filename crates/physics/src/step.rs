@@ -5,7 +5,7 @@
 //! scratch array so that a step never allocates.
 
 use crate::actuation::{Actuation, ActuationScratch};
-use crate::contact::{add_contact_forces, stick_slots};
+use crate::contact::add_contact_forces;
 use crate::damping::{AnalyticalDamper, KickFactors};
 use crate::energy::{energies_with_rest, Energies};
 use crate::error::StepError;
@@ -55,10 +55,6 @@ pub struct Workspace {
     guard: Guard,
     /// Broad phase and Verlet list of rod–rod and self contact.
     pub rod_contact: RodContactScratch,
-    /// Stick springs of obstacle friction (tangential displacement per element and obstacle
-    /// with friction); sized when obstacles with friction are present.
-    #[cfg_attr(feature = "serde", serde(default))]
-    pub stick: Vec<Vec3>,
     // The machine code `step` runs (not saved: a restored simulation picks its own machine's).
     #[cfg_attr(feature = "serde", serde(skip))]
     kernel: Kernel,
@@ -97,7 +93,6 @@ impl Workspace {
                 floor,
             },
             rod_contact: RodContactScratch::new(system),
-            stick: vec![[0.0; 3]; stick_slots(system.obstacle_set(), ne)],
             kernel: Kernel::selected(),
         };
         ws.reset_energy_reference(system, state);
@@ -348,11 +343,9 @@ fn step_body(
     let obstacles = system.obstacle_set();
     if !obstacles.is_empty() {
         // Obstacles may be added between steps: (re)size the stick springs then, not per step.
-        let slots = stick_slots(obstacles, system.n_elements);
-        if ws.stick.len() != slots {
-            ws.stick.clear();
-            ws.stick.resize(slots, [0.0; 3]);
-        }
+        system.fit_stick(state);
+        // The springs are moved out of the state while its rods are borrowed (no copy).
+        let mut stick = std::mem::take(&mut state.stick);
         for rod in &system.rods {
             let v = state.view(rod.at.node, rod.at.element, rod.n_elements());
             add_contact_forces(
@@ -365,10 +358,11 @@ fn step_body(
                 rod.at.node,
                 rod.at.element,
                 system.n_elements,
-                &mut ws.stick,
+                &mut stick,
                 &mut ws.external,
             );
         }
+        state.stick = stick;
     }
     if system.contact.rod_contact() {
         add_rod_contact_forces(system, state, &mut ws.rod_contact, dt, &mut ws.external);

@@ -293,6 +293,21 @@ impl RodSystem {
         }
     }
 
+    /// Number of stick springs the frictional obstacles need (`SystemState::stick`).
+    pub fn stick_slots(&self) -> usize {
+        crate::contact::stick_slots(self.obstacle_set(), self.n_elements)
+    }
+
+    /// Size `state.stick` for the obstacles now present: all springs zero (relaxed) if their
+    /// number changed (an obstacle was added), untouched otherwise. Allocates only then.
+    pub fn fit_stick(&self, state: &mut SystemState) {
+        let slots = self.stick_slots();
+        if state.stick.len() != slots {
+            state.stick.clear();
+            state.stick.resize(slots, [0.0; 3]);
+        }
+    }
+
     /// Contact penalty parameters.
     pub fn contact(&self) -> &ContactParams {
         &self.contact

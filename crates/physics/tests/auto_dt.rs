@@ -178,3 +178,78 @@ fn guard_rechecks_the_automatic_step_as_the_arm_deforms() {
         assert!(!what.contains("automatic time step"), "{what}");
     }
 }
+
+/// `Simulation::use_auto_dt` (the library and Python form of `dt = "auto"`): dt is 0.2 of the
+/// stable limit with the guard's re-check armed; a stiffer system added before the first step
+/// re-chooses it (here a stiff contact spring, whose frequency the limit includes), one added
+/// after the first step does not (dt stays, the guard watches).
+#[test]
+fn use_auto_dt_follows_the_system_until_the_first_step() {
+    use octoarm_physics::{ContactParams, Friction, Plane, Sphere};
+    let mut sim = paper_sim(Settings::default());
+    let dt = sim.use_auto_dt().unwrap();
+    let limit = sim.system.stable_dt();
+    assert_eq!(dt, AUTO_DT_FRACTION * limit);
+    assert_eq!(sim.settings().dt, dt);
+    assert_eq!(sim.settings().max_dt_fraction, Some(AUTO_DT_RECHECK));
+
+    // A floor under the arm with a contact spring 400× the default: ω_contact = 20 × the
+    // default's, far above the rod's own ω̂_max, so the limit (and dt) must drop.
+    sim.add_plane(Plane::new(
+        [0.0, -0.05, 0.0],
+        [0.0, 1.0, 0.0],
+        Friction::NONE,
+    ))
+    .unwrap();
+    sim.set_contact(ContactParams {
+        beta: 400.0,
+        ..ContactParams::default()
+    })
+    .unwrap();
+    let stiff = sim.system.stable_dt();
+    assert!(
+        stiff < 0.5 * limit,
+        "contact spring should set the limit: {stiff} vs {limit}"
+    );
+    assert_eq!(sim.settings().dt, AUTO_DT_FRACTION * stiff);
+
+    sim.run(10).unwrap();
+    let dt_run = sim.settings().dt;
+    sim.set_contact(ContactParams {
+        beta: 1600.0,
+        ..ContactParams::default()
+    })
+    .unwrap();
+    sim.add_obstacle(Sphere {
+        center: [0.1, 0.2, 0.0],
+        radius: 0.01,
+        velocity: [0.0; 3],
+        friction: Friction::NONE,
+    })
+    .unwrap();
+    assert_eq!(
+        sim.settings().dt,
+        dt_run,
+        "dt must not change once stepping has begun"
+    );
+}
+
+/// Without `use_auto_dt` the mutators leave dt as given.
+#[test]
+fn fixed_dt_is_never_rechosen() {
+    use octoarm_physics::{ContactParams, Friction, Plane};
+    let mut sim = paper_sim(Settings::with_dt(1e-5));
+    sim.add_plane(Plane::new(
+        [0.0, -0.05, 0.0],
+        [0.0, 1.0, 0.0],
+        Friction::NONE,
+    ))
+    .unwrap();
+    sim.set_contact(ContactParams {
+        beta: 400.0,
+        ..ContactParams::default()
+    })
+    .unwrap();
+    assert_eq!(sim.settings().dt, 1e-5);
+    assert_eq!(sim.settings().max_dt_fraction, None);
+}

@@ -13,7 +13,9 @@
 use crate::arrays::{
     mat3s, read_mat3s, read_vec3, read_vec3_or, read_vec3s, scalars, vec3s, ArrayPair,
 };
-use crate::system::{build_system, check_count, end_condition, quoted, single_rod, Joint, Rod};
+use crate::system::{
+    build_system, check_count, end_condition, quoted, single_rod, Joint, Rod, TimeStep,
+};
 use crate::{lock, lock_detached, model_error, step_error};
 use numpy::{PyArray1, PyArray2, PyArray3};
 use octoarm_physics as phys;
@@ -31,7 +33,7 @@ use std::time::Instant;
 /// Start of a pickled simulation: a tag, then the format version.
 const PICKLE_TAG: &[u8] = b"octoarm.Simulation";
 /// Version of the pickle layout (bump when the serialised physics types change).
-const PICKLE_FORMAT: u8 = 1;
+const PICKLE_FORMAT: u8 = 2;
 
 /// One Cosserat rod, or a system of named rods joined by joints, with loads, obstacles, damping
 /// and numerical settings (SI units). Domains per rod: nodes (n + 1), elements (n), interior
@@ -306,7 +308,7 @@ impl Simulation {
         n_elements = 100, length = 0.2, base_diameter = 0.02, tip_diameter = 0.0004,
         density = 700.0, youngs_modulus = 1.0e4, shear_modulus = 1.0e3,
         shear_coefficient = Material::DEFAULT_SHEAR_COEFFICIENT,
-        base_position = None, direction = None, normal = None, rest_curvature = None, boundary = None, dt = 1.0e-5,
+        base_position = None, direction = None, normal = None, rest_curvature = None, boundary = None, dt = None,
         energy_consistent = false, base = None, tip = None
     ))]
     #[pyo3(text_signature = "(n_elements=100, length=0.2, base_diameter=0.02, \
@@ -329,7 +331,7 @@ impl Simulation {
         normal: Option<&Bound<'_, PyAny>>,
         rest_curvature: Option<&Bound<'_, PyAny>>,
         boundary: Option<&str>,
-        dt: f64,
+        dt: Option<&Bound<'_, PyAny>>,
         energy_consistent: bool,
         base: Option<&Bound<'_, PyAny>>,
         tip: Option<&Bound<'_, PyAny>>,
@@ -367,24 +369,31 @@ impl Simulation {
         if let Some(o) = tip {
             t = end_condition("tip", o)?;
         }
+        let dt = TimeStep::read(dt, 1.0e-5)?;
         let settings = Settings {
             energy_consistent,
-            ..Settings::with_dt(dt)
+            ..Settings::with_dt(dt.initial())
         };
-        Ok(Self::from_inner(single_rod(&rod, b, t, settings)?))
+        let mut inner = single_rod(&rod, b, t, settings)?;
+        dt.apply(&mut inner)?;
+        Ok(Self::from_inner(inner))
     }
 
-    /// The paper's arm (`StraightRod::paper_arm`) with `n_elements` elements and time step `dt`.
+    /// The paper's arm (`StraightRod::paper_arm`) with `n_elements` elements and time step `dt`
+    /// (seconds, or "auto").
     #[staticmethod]
-    #[pyo3(signature = (dt = 1.0e-5, n_elements = 100))]
-    fn paper_arm(dt: f64, n_elements: i64) -> PyResult<Self> {
+    #[pyo3(signature = (dt = None, n_elements = 100),
+        text_signature = "(dt=1e-05, n_elements=100)")]
+    fn paper_arm(dt: Option<&Bound<'_, PyAny>>, n_elements: i64) -> PyResult<Self> {
+        let dt = TimeStep::read(dt, 1.0e-5)?;
         let rod = StraightRod::paper_arm().with_elements(check_count("n_elements", n_elements, 2)?);
-        let inner = single_rod(
+        let mut inner = single_rod(
             &rod,
             EndCondition::Clamped,
             EndCondition::Free,
-            Settings::with_dt(dt),
+            Settings::with_dt(dt.initial()),
         )?;
+        dt.apply(&mut inner)?;
         Ok(Self::from_inner(inner))
     }
 
@@ -392,14 +401,22 @@ impl Simulation {
     /// the COOMM frame (along +x, d1 = −e_z), clamped at the origin, with its seven muscle
     /// groups (thirteen fibres, cubic force–length curve), Morison drag (`drag`, §3.1) and the
     /// `coomm` damping preset (`damping`, §3.2); `n_elements` ≥ 4 (default 100), time step `dt`
-    /// [s] (default 1e-5). Drive it with `set_activations` or a `MuscleShapingController`.
+    /// [s] (default 1e-5, or "auto"). Drive it with `set_activations` or a
+    /// `MuscleShapingController`.
     #[staticmethod]
-    #[pyo3(signature = (dt = 1.0e-5, n_elements = 100, drag = true, damping = true))]
-    fn coomm_arm(dt: f64, n_elements: i64, drag: bool, damping: bool) -> PyResult<Self> {
+    #[pyo3(signature = (dt = None, n_elements = 100, drag = true, damping = true),
+        text_signature = "(dt=1e-05, n_elements=100, drag=True, damping=True)")]
+    fn coomm_arm(
+        dt: Option<&Bound<'_, PyAny>>,
+        n_elements: i64,
+        drag: bool,
+        damping: bool,
+    ) -> PyResult<Self> {
+        let dt = TimeStep::read(dt, 1.0e-5)?;
         let n = check_count("n_elements", n_elements, 4)?;
-        Ok(Self::from_inner(crate::muscle::coomm_simulation(
-            n, dt, drag, damping,
-        )?))
+        let mut inner = crate::muscle::coomm_simulation(n, dt.initial(), drag, damping)?;
+        dt.apply(&mut inner)?;
+        Ok(Self::from_inner(inner))
     }
 
     /// Set the muscle activations (7, n) in [0, 1], group-major (row g = group g of
@@ -440,26 +457,27 @@ impl Simulation {
     /// `Joint`), at rest in the rods' initial shapes at t = 0, undamped, time step `dt` [s].
     #[staticmethod]
     /// `clamp_order` 2 selects the second-order clamp (see docs/physics.md).
-    #[pyo3(signature = (rods, joints = Vec::new(), dt = 1.0e-5, energy_consistent = false, clamp_order = 1),
+    #[pyo3(signature = (rods, joints = Vec::new(), dt = None, energy_consistent = false, clamp_order = 1),
         text_signature = "(rods, joints=(), dt=1e-05, energy_consistent=False, clamp_order=1)")]
     fn from_rods(
         rods: Vec<PyRef<'_, Rod>>,
         joints: Vec<PyRef<'_, Joint>>,
-        dt: f64,
+        dt: Option<&Bound<'_, PyAny>>,
         energy_consistent: bool,
         clamp_order: u8,
     ) -> PyResult<Self> {
+        let dt = TimeStep::read(dt, 1.0e-5)?;
         let rods: Vec<Rod> = rods.iter().map(|r| (**r).clone()).collect();
         let joints: Vec<Joint> = joints.iter().map(|j| (**j).clone()).collect();
         let settings = Settings {
             energy_consistent,
             clamp_order,
-            ..Settings::with_dt(dt)
+            ..Settings::with_dt(dt.initial())
         };
         let (system, state) = build_system(&rods, &joints, settings)?;
-        Ok(Self::from_inner(phys::Simulation::from_parts(
-            system, state,
-        )))
+        let mut inner = phys::Simulation::from_parts(system, state);
+        dt.apply(&mut inner)?;
+        Ok(Self::from_inner(inner))
     }
 
     /// An independent copy (system, state, actuation, counters and guard history).
@@ -948,10 +966,18 @@ impl Simulation {
         Ok(self.rod_elements(r))
     }
 
-    /// Time step [s].
+    /// Time step [s]. With `dt="auto"`: 0.2 of the stable limit of the system as it is now
+    /// (re-chosen when obstacles or contact are added, until the first step).
     #[getter]
     fn dt(&self, py: Python<'_>) -> f64 {
         self.lock(py).settings().dt
+    }
+
+    /// Whether the time step is automatic (`dt="auto"`); the guard then also stops a run whose
+    /// dt exceeds 0.5 of the stable limit of the deformed state.
+    #[getter]
+    fn auto_dt(&self, py: Python<'_>) -> bool {
+        self.lock(py).auto_dt
     }
 
     /// Largest stable time step estimate 2/ω_max of the system [s] (rods and joints).

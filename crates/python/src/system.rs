@@ -27,6 +27,61 @@ pub(crate) fn check_count(field: &str, value: i64, min: i64) -> PyResult<usize> 
     Ok(value as usize)
 }
 
+/// The `dt` argument of the constructors: a time step in seconds, or `"auto"` (0.2 of the
+/// system's stable limit, re-chosen until the first step; `Simulation::use_auto_dt`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum TimeStep {
+    /// A fixed time step [s] (checked > 0 and finite by `Settings::validate`).
+    Seconds(f64),
+    /// The automatic time step.
+    Auto,
+}
+
+impl TimeStep {
+    /// Read `dt` (None: `default` seconds). A string other than "auto", or an object that is
+    /// not a real number, is refused with the allowed values.
+    pub(crate) fn read(obj: Option<&Bound<'_, PyAny>>, default: f64) -> PyResult<Self> {
+        let Some(obj) = obj else {
+            return Ok(Self::Seconds(default));
+        };
+        if let Ok(word) = obj.extract::<String>() {
+            return if word == "auto" {
+                Ok(Self::Auto)
+            } else {
+                Err(PyValueError::new_err(format!(
+                    "dt = {word:?} is not allowed; give a time step in seconds in (0, inf) or \"auto\""
+                )))
+            };
+        }
+        obj.extract::<f64>().map(Self::Seconds).map_err(|_| {
+            let kind = obj
+                .get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default();
+            PyTypeError::new_err(format!(
+                "dt must be a time step in seconds in (0, inf) or \"auto\", not {kind}"
+            ))
+        })
+    }
+
+    /// The seconds to build the settings with (a placeholder for "auto", replaced by `apply`).
+    pub(crate) fn initial(self) -> f64 {
+        match self {
+            Self::Seconds(dt) => dt,
+            Self::Auto => 1.0e-5,
+        }
+    }
+
+    /// Switch a built simulation to the automatic time step if asked.
+    pub(crate) fn apply(self, sim: &mut phys::Simulation) -> PyResult<()> {
+        if let Self::Auto = self {
+            sim.use_auto_dt().map_err(model_error)?;
+        }
+        Ok(())
+    }
+}
+
 /// An end condition from Python: "free", "pinned", "clamped" or a `Motion` (a driven clamped
 /// end). `field` ("base" or "tip") names the argument in errors.
 pub(crate) fn end_condition(field: &str, obj: &Bound<'_, PyAny>) -> PyResult<EndCondition> {

@@ -62,7 +62,21 @@ def _system():
     return sim
 
 
-@pytest.mark.parametrize("make", [_loaded_arm, _system], ids=["arm", "system"])
+def _arm_on_floor():
+    # A uniform arm resting on a floor with anisotropic friction, pushed sideways: the floor's
+    # stick springs (the friction's memory, part of the state) are loaded when it is copied.
+    sim = Simulation(n_elements=30, length=0.3, base_diameter=0.01, tip_diameter=0.01,
+                     dt=1e-5, **STIFF)
+    sim.add_gravity([0.0, 0.0, -9.81])
+    sim.add_plane([0.0, 0.0, -0.005], [0.0, 0.0, 1.0], friction=[0.2, 0.4, 0.6],
+                  kinetic_friction=[0.15, 0.3, 0.5])
+    sim.add_node_force([0.0, 2e-3, 0.0], ramp_time=0.02)
+    sim.set_damping(rate=3.0)
+    return sim
+
+
+@pytest.mark.parametrize("make", [_loaded_arm, _system, _arm_on_floor],
+                         ids=["arm", "system", "floor"])
 @pytest.mark.parametrize("how", ["pickle", "deepcopy", "bytes"])
 def test_copy_mid_run_steps_to_the_same_bits(make, how):
     sim = make()

@@ -87,6 +87,7 @@ pub fn system_state(s: &RodState) -> SystemState {
         omega: Vec3s::from_slice(&s.omega),
         work: vec![0.0],
         dissipated: vec![0.0],
+        stick: Vec::new(),
     }
 }
 

@@ -7,7 +7,7 @@
 # float64 (observations: float32) C-contiguous NumPy copies.
 
 import os
-from typing import Any, Sequence, final
+from typing import Any, Literal, Sequence, final
 
 import numpy as np
 import numpy.typing as npt
@@ -177,16 +177,19 @@ class Simulation:
         normal: _Vec3 | None = ...,
         rest_curvature: _Vec3 | None = ...,
         boundary: str | None = None,
-        dt: float = 1e-05,
+        dt: float | Literal["auto"] = 1e-05,
         energy_consistent: bool = False,
         base: _EndCondition | None = None,
         tip: _EndCondition | None = None,
     ) -> Simulation: ...
     @staticmethod
-    def paper_arm(dt: float = 1e-05, n_elements: int = 100) -> Simulation: ...
+    def paper_arm(dt: float | Literal["auto"] = 1e-05, n_elements: int = 100) -> Simulation: ...
     @staticmethod
     def coomm_arm(
-        dt: float = 1e-05, n_elements: int = 100, drag: bool = True, damping: bool = True
+        dt: float | Literal["auto"] = 1e-05,
+        n_elements: int = 100,
+        drag: bool = True,
+        damping: bool = True,
     ) -> Simulation: ...
     def set_activations(self, activations: npt.ArrayLike) -> None: ...
     @property
@@ -195,7 +198,7 @@ class Simulation:
     def from_rods(
         rods: Sequence[Rod],
         joints: Sequence[Joint] = (),
-        dt: float = 1e-05,
+        dt: float | Literal["auto"] = 1e-05,
         energy_consistent: bool = False,
         clamp_order: int = 1,
     ) -> Simulation: ...
@@ -291,6 +294,8 @@ class Simulation:
     def n_elements(self) -> int: ...
     @property
     def dt(self) -> float: ...
+    @property
+    def auto_dt(self) -> bool: ...
     @property
     def stable_dt(self) -> float: ...
     @property
