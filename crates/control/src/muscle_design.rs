@@ -657,7 +657,8 @@ impl MuscleDesign {
     /// multi-start. Without `stop_when` there is one start. The report's `iterations`,
     /// `evaluations`, Newton and chord iterations and `seconds` are totals over the starts; its
     /// outcome, costs and bound counts are the winner's, whose equilibrium is left in
-    /// `statics()`. Deterministic: the same input gives the same bits.
+    /// `statics()`. Deterministic: the same input (with the statics' last equilibrium, which
+    /// warm-starts start 0's first solve) gives the same bits.
     pub fn try_solve<T: DesignTask + ?Sized>(
         &mut self,
         task: &T,
