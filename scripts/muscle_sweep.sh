@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # The muscular arm's target sweep (issue 12): reachable 3D target poses, each designed from a = 0
-# (to spec §7 A's bounds) and simulated with the muscle controller in water; then the
-# distributions of design time and final errors (scripts/muscle_sweep_summary.py).
+# (to spec §7 A's bounds, with the design's multi-start) and simulated with the muscle controller
+# in water; then the distributions of design time and final errors (scripts/muscle_sweep_summary.py).
 # Resumable: run it again with the same OUT and it continues (`octoarm sweep --resume`), keeping
 # the complete runs. Not in CI (hours: ≈ 1 s design + the dynamics, ≈ 30 µs per step).
 #
 #   scripts/muscle_sweep.sh [OUT] [DURATION_S] [THREADS] [COUNT]
 #   scripts/muscle_sweep.sh results/muscle-sweep 15 2 1000
+#   scripts/muscle_sweep.sh results/muscle-designs 1e-5 1 1000   # designs only: one 10 µs step
 #
 # Targets: docs/muscles.md "Target sweep" (target_seed k = 0..COUNT-1: the tip point and frame
 # of the static equilibrium under random activations drawn from seed k).

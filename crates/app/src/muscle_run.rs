@@ -182,6 +182,8 @@ impl MuscleDesignRun {
             "evaluations": self.report.evaluations,
             "newton_iterations": self.report.newton_iterations,
             "seconds": self.report.seconds,
+            "starts": self.report.starts,
+            "winner": self.report.winner,
             "cost": c.total,
             "activation_cost": c.activation,
             "position_cost": c.position,
@@ -246,6 +248,12 @@ pub fn design(
     let statics = MuscleStatics::new(model, muscles.clone(), base, view.director(0));
     let mut d = MuscleDesign::new(statics);
     d.config.max_iterations = mc.max_iterations;
+    if let Some(k) = mc.max_starts {
+        d.config.max_starts = k;
+    }
+    if let Some(k) = mc.max_total_iterations {
+        d.config.max_total_iterations = k;
+    }
     if let Some(groups) = &mc.groups {
         d.config.groups =
             std::array::from_fn(|g| groups.iter().any(|x| x == MUSCLE_GROUP_NAMES[g]));
@@ -293,7 +301,9 @@ pub fn design(
             if mc.stop_at_bounds {
                 d.config.stop_when = Some((1.5e-4 * length, 1e-3, f64::INFINITY));
             }
-            let out = d.solve(&t, &a0);
+            let out = d
+                .try_solve(&t, &a0)
+                .map_err(|e| scn.error_at("muscle_control", format!("muscle_control: {e}")))?;
             (MuscleTask::Reach(t), out)
         }
         MuscleTaskKind::Grasp => {
@@ -367,11 +377,13 @@ pub fn design(
     )
     .map_err(|e| scn.error_at("muscle_control", format!("muscle_control: {e}")))?;
     tracing::info!(
-        "{}: muscle design {:?} after {} iterations ({} evaluations) in {:.2} s: J = {:.4}, tip error {:.2e} m, θ_Q {:.2e} rad",
+        "{}: muscle design {:?} after {} iterations ({} evaluations, start {} of {}) in {:.2} s: J = {:.4}, tip error {:.2e} m, θ_Q {:.2e} rad",
         scn.name,
         report.outcome,
         report.iterations,
         report.evaluations,
+        report.winner + 1,
+        report.starts,
         report.seconds,
         report.costs.total,
         report.costs.tip_error,

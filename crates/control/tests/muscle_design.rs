@@ -175,3 +175,45 @@ fn grasp_gradient_matches_finite_differences() {
         }
     }
 }
+
+// Multi-start (issue 12, spec §5.6): restart k starts from the Halton point of the seven group
+// levels (radical inverses of k in bases 2, 3, 5, 7, 11, 13, 17, uniform along the arm), and a
+// design without bounds to meet (`stop_when` None) has one start whatever `max_starts` says,
+// so its bits do not change. (The restarts themselves: `octoarm`'s `muscle_multistart` test.)
+#[test]
+fn restarts_start_at_halton_levels_and_unbounded_designs_have_one_start() {
+    use octoarm_control::restart_activations;
+    let n = 3;
+    let mut a = vec![f64::NAN; N_GROUPS * n];
+    // k = 5: 101₂ → 0.101₂ = 5/8; 12₃ → 0.21₃ = 7/9; 10₅ → 0.01₅ = 1/25; 5/7, 5/11, 5/13, 5/17.
+    restart_activations(5, n, &mut a);
+    let want = [
+        5.0 / 8.0,
+        7.0 / 9.0,
+        1.0 / 25.0,
+        5.0 / 7.0,
+        5.0 / 11.0,
+        5.0 / 13.0,
+        5.0 / 17.0,
+    ];
+    for g in 0..N_GROUPS {
+        for j in 0..n {
+            assert!(
+                (a[g * n + j] - want[g]).abs() <= 1e-15,
+                "group {g}: {}",
+                a[g * n + j]
+            );
+        }
+    }
+    let solve = |starts: usize| {
+        let (mut d, task) = design(100);
+        d.config.max_iterations = 20;
+        d.config.max_starts = starts;
+        d.solve(&task, &vec![0.0; N_GROUPS * 100])
+    };
+    let (a1, r1) = solve(1);
+    let (a8, r8) = solve(8);
+    assert_eq!((r8.starts, r8.winner), (1, 0));
+    assert_eq!(a1, a8);
+    assert_eq!(r1.costs, r8.costs);
+}

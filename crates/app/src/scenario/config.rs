@@ -190,6 +190,15 @@ pub struct MuscleControlConfig {
     /// L-BFGS iterations (per grasp stage), in [1, 100000]; default 2000.
     #[serde(default = "default_design_iterations")]
     pub max_iterations: usize,
+    /// With `stop_at_bounds`: the design's multi-start, starts in all (the start from a = 0
+    /// included), in [1, 1000]; 1 = no restart; default 8 (`DesignConfig::max_starts`; the
+    /// rule is in docs/muscles.md "Multi-start").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_starts: Option<usize>,
+    /// With `stop_at_bounds`: L-BFGS iterations over all starts, in [1, 10000000]; default
+    /// 8000 (`DesignConfig::max_total_iterations`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_total_iterations: Option<usize>,
     /// Ramp of the activations [s], ≥ 0; default 1 (COOMM).
     #[serde(default = "default_one")]
     pub ramp: f64,

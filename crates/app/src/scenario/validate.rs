@@ -978,6 +978,12 @@ impl ScenarioConfig {
             100_000,
         )?;
         count("muscle_control.stages", c.stages, 1, 10)?;
+        if let Some(v) = c.max_starts {
+            count("muscle_control.max_starts", v, 1, 1000)?;
+        }
+        if let Some(v) = c.max_total_iterations {
+            count("muscle_control.max_total_iterations", v, 1, 10_000_000)?;
+        }
         if let Some(groups) = &c.groups {
             for (i, g) in groups.iter().enumerate() {
                 if !super::config::MUSCLE_GROUP_NAMES.contains(&g.as_str()) {

@@ -59,10 +59,12 @@ pub fn result_columns(plan: &SweepPlan) -> Vec<String> {
 }
 
 /// Muscle-run results (`[muscle_control]`): column and path in `summary.json`'s `muscles`.
-const MUSCLE_RESULTS: [(&str, &[&str]); 14] = [
+const MUSCLE_RESULTS: [(&str, &[&str]); 16] = [
     ("design_seconds", &["design", "seconds"]),
     ("design_iterations", &["design", "iterations"]),
     ("design_evaluations", &["design", "evaluations"]),
+    ("design_starts", &["design", "starts"]),
+    ("design_winner", &["design", "winner"]),
     ("design_cost", &["design", "cost"]),
     ("design_tip_error_l0", &["design", "tip_error_l0"]),
     ("design_orientation_error", &["design", "orientation_error"]),
