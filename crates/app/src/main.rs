@@ -33,7 +33,8 @@ enum Suite {
 #[command(name = "octoarm", version, propagate_version = true)]
 #[command(
     after_help = "Exit codes: 0 success; 1 the run failed (e.g. became unstable; the frames \
-recorded so far are written); 2 invalid scenario or arguments (nothing is written)."
+recorded so far are written); 2 invalid scenario or arguments (nothing is written); 3 (paper) \
+every experiment ran but an acceptance check failed (report.md lists it)."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -100,7 +101,8 @@ enum Command {
     /// summary.json, scenario.toml) as each completes, then distance.png and report.md with
     /// the acceptance checks each scenario file declares.
     ///
-    /// If an experiment fails, the others' outputs are still written and the exit code is 1.
+    /// If an experiment fails, the others' outputs are still written and the exit code is 1;
+    /// if all ran but an acceptance check failed, the exit code is 3.
     Paper {
         /// Output directory.
         #[arg(short, long, value_name = "DIR", default_value = "results")]
@@ -271,6 +273,14 @@ struct RunFailed {
     message: String,
 }
 
+/// Every experiment of `paper` ran and wrote its outputs, but an acceptance check failed
+/// (exit code 3).
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+struct ChecksFailed {
+    message: String,
+}
+
 /// A run stopped by SIGINT / SIGTERM; its outputs are written (exit 128 + signal).
 #[derive(Debug, thiserror::Error)]
 #[error("{message}")]
@@ -305,6 +315,8 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             if let Some(i) = e.downcast_ref::<Interrupted>() {
                 ExitCode::from((128 + i.signal) as u8)
+            } else if e.downcast_ref::<ChecksFailed>().is_some() {
+                ExitCode::from(3)
             } else if e.downcast_ref::<ScenarioError>().is_some()
                 || e.downcast_ref::<OutputError>().is_some()
                 || e.downcast_ref::<octoarm::sweep::ray::RayUnavailable>()
@@ -417,6 +429,18 @@ fn run(cli: Cli) -> Result<()> {
                     report.results.len(),
                     report.wall_seconds
                 );
+            }
+            let failed = report.failed_checks();
+            if !failed.is_empty() {
+                return Err(ChecksFailed {
+                    message: format!(
+                        "{} acceptance check(s) failed (all outputs and report.md are in {}):\n  {}",
+                        failed.len(),
+                        out.display(),
+                        failed.join("\n  ")
+                    ),
+                }
+                .into());
             }
             Ok(())
         }

@@ -9,7 +9,7 @@ use crate::output::OutputDir;
 use crate::paper_figures::{self, DistanceCurve};
 use crate::pipeline::{self, RunOptions, RunReport};
 use crate::progress::Progress;
-use crate::scenario::{Scenario, ScenarioError};
+use crate::scenario::{MuscleTaskKind, Scenario, ScenarioError, TipFrameKind};
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -175,10 +175,64 @@ impl PaperReport {
             .iter()
             .all(|(_, r)| matches!(r, PaperResult::Ran(run) if run.failure.is_none()))
     }
+    /// The acceptance checks that failed, as "experiment: claim (measured)" (undecided checks,
+    /// e.g. claims about times after a shortened run's end, are not failures).
+    pub fn failed_checks(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for (name, r) in &self.results {
+            if let PaperResult::Ran(run) = r {
+                let muscle = run.data.muscle.as_ref().map_or(&[][..], |m| &m.checks[..]);
+                for c in checks(run).iter().chain(muscle) {
+                    if c.pass == Some(false) {
+                        out.push(format!("{name}: {} ({})", c.claim, c.measured));
+                    }
+                }
+            }
+        }
+        out
+    }
 }
 
 fn checks(run: &RunReport) -> &[Check] {
     run.data.series.as_ref().map_or(&[], |s| &s.checks)
+}
+
+/// A run's acceptance verdict for the summary table: "pass (k/n)", "**f failed** (k/n pass)"
+/// (undecided checks count in n only), or "—" without checks.
+fn verdict(checks: &[Check]) -> String {
+    let decided: Vec<bool> = checks.iter().filter_map(|c| c.pass).collect();
+    let passed = decided.iter().filter(|p| **p).count();
+    if checks.is_empty() {
+        "—".into()
+    } else if passed == decided.len() {
+        format!("pass ({passed}/{})", checks.len())
+    } else {
+        format!(
+            "**{} failed** ({passed}/{} pass)",
+            decided.len() - passed,
+            checks.len()
+        )
+    }
+}
+
+/// One row of an acceptance table: experiment label, claim (with the scenario's note),
+/// measured value, verdict.
+fn check_row(s: &mut String, label: &str, c: &Check) {
+    let verdict = match c.pass {
+        Some(true) => "pass",
+        Some(false) => "**fail**",
+        None => "undecided",
+    };
+    let note = c
+        .note
+        .as_ref()
+        .map(|n| format!(" ({n})"))
+        .unwrap_or_default();
+    let _ = writeln!(
+        s,
+        "| {label} | {}{note} | {} | {verdict} |",
+        c.claim, c.measured
+    );
 }
 
 /// Run the experiments into `root` (already prepared) on `threads` workers, each folder
@@ -469,20 +523,7 @@ pub fn report_md(scenarios: &[Scenario], report: &PaperReport) -> String {
                             .map(|g| format!("{:.3}", g.overshoot))
                             .collect()
                     };
-                    let checks = checks(run);
-                    let decided: Vec<bool> = checks.iter().filter_map(|c| c.pass).collect();
-                    let passed = decided.iter().filter(|p| **p).count();
-                    let verdict = if checks.is_empty() {
-                        "—".into()
-                    } else if passed == decided.len() {
-                        format!("pass ({passed}/{})", checks.len())
-                    } else {
-                        format!(
-                            "**{} failed** ({passed}/{} pass)",
-                            decided.len() - passed,
-                            checks.len()
-                        )
-                    };
+                    let verdict = verdict(checks(run));
                     let _ = writeln!(
                         s,
                         "| {label} | {:.2e} | {} | {} | {:.3e} | {:.3e} | {:.3} | {} | {:.1} | {verdict} |",
@@ -524,23 +565,7 @@ pub fn report_md(scenarios: &[Scenario], report: &PaperReport) -> String {
     for (i, (name, r)) in report.results.iter().enumerate() {
         if let PaperResult::Ran(run) = r {
             for c in checks(run) {
-                let verdict = match c.pass {
-                    Some(true) => "pass",
-                    Some(false) => "**fail**",
-                    None => "undecided",
-                };
-                let note = c
-                    .note
-                    .as_ref()
-                    .map(|n| format!(" ({n})"))
-                    .unwrap_or_default();
-                let _ = writeln!(
-                    s,
-                    "| {} {name} | {}{note} | {} | {verdict} |",
-                    letter(i),
-                    c.claim,
-                    c.measured
-                );
+                check_row(&mut s, &format!("{} {name}", letter(i)), c);
             }
         }
     }
@@ -602,36 +627,41 @@ pub fn muscles_report_md(scenarios: &[Scenario], report: &PaperReport) -> String
                 twists.push((name.clone(), d.twist));
                 let c = &d.report.costs;
                 let sm = m.summary.unwrap_or_default();
-                let decided: Vec<bool> = m.checks.iter().filter_map(|c| c.pass).collect();
-                let passed = decided.iter().filter(|p| **p).count();
-                let mut verdict = if passed == decided.len() {
-                    format!("pass ({passed}/{})", m.checks.len())
-                } else {
-                    format!(
-                        "**{} failed** ({passed}/{} pass)",
-                        decided.len() - passed,
-                        m.checks.len()
-                    )
-                };
+                let mut verdict = verdict(&m.checks);
                 if let Some(f) = &run.failure {
                     verdict = format!("**run failed**: {}", f.to_string().replace('|', "/"));
                 }
+                // A grasp has no tip target, a point reach no target frame: "—" there.
+                let (point, frame) = match &scenarios[i].config.muscle_control {
+                    Some(mc) if mc.task == MuscleTaskKind::Reach => {
+                        (true, mc.frame != TipFrameKind::None)
+                    }
+                    _ => (false, false),
+                };
+                let e2 = |applies: bool, v: f64| {
+                    if applies {
+                        format!("{v:.2e}")
+                    } else {
+                        "—".to_string()
+                    }
+                };
                 let _ = writeln!(
                     s,
-                    "| {label} | {:?}, {}, {} | {:.2} | {:.4} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {} | {} | {:.2e} | {:.2e} | {:.1} | {verdict} |",
+                    "| {label} | {:?}, {}, {} | {:.2} | {:.4} | {} | {} | {} | {} | {} | {} | {:.2e} | {} | {:.1} | {verdict} |",
                     d.report.outcome,
                     d.report.iterations,
                     d.report.evaluations,
                     d.report.seconds,
                     c.total,
-                    c.tip_error / d.length,
-                    c.orientation_error,
-                    sm.final_tip_error,
-                    sm.final_orientation_error,
+                    e2(point, c.tip_error / d.length),
+                    e2(frame, c.orientation_error),
+                    e2(point, sm.final_tip_error),
+                    e2(frame, sm.final_orientation_error),
                     opt(sm.time_to_5_percent),
                     opt(sm.time_to_1_percent),
                     sm.node_deviation,
-                    sm.hamiltonian_rise,
+                    // No sample after the ramp (a run shorter than it): nothing to report.
+                    e2(sm.hamiltonian_ramp.is_finite(), sm.hamiltonian_rise),
                     run.wall_seconds,
                 );
             }
@@ -651,23 +681,7 @@ pub fn muscles_report_md(scenarios: &[Scenario], report: &PaperReport) -> String
         if let PaperResult::Ran(run) = r {
             if let Some(m) = &run.data.muscle {
                 for c in &m.checks {
-                    let verdict = match c.pass {
-                        Some(true) => "pass",
-                        Some(false) => "**fail**",
-                        None => "undecided",
-                    };
-                    let note = c
-                        .note
-                        .as_ref()
-                        .map(|n| format!(" ({n})"))
-                        .unwrap_or_default();
-                    let _ = writeln!(
-                        s,
-                        "| {} {name} | {}{note} | {} | {verdict} |",
-                        letter(i),
-                        c.claim,
-                        c.measured
-                    );
+                    check_row(&mut s, &format!("{} {name}", letter(i)), c);
                 }
             }
             if run.failure.is_some() {

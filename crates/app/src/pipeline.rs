@@ -552,7 +552,10 @@ fn summary_json(
     out.insert("save_every_steps".into(), json!(cfg.save_every()));
     out.insert("frames".into(), json!(frames));
     out.insert("final_time".into(), json!(final_time));
-    out.insert("controlled".into(), json!(cfg.controller.is_some()));
+    out.insert(
+        "controlled".into(),
+        json!(cfg.controller.is_some() || cfg.muscle_control.is_some()),
+    );
     out.insert("failure".into(), json!(failure_json));
     out.insert("notes".into(), json!(scn.notes));
     // The recorders' keys: rods, final figures, control figures, acceptance, and `arrays`

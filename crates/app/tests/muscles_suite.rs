@@ -42,6 +42,12 @@ fn reduced_muscle_suite_writes_every_output() {
     assert!(report.all_ok());
     let text = std::fs::read_to_string(root.join("report.md")).unwrap();
     assert!(text.contains("muscles-3d spec §7"), "{text}");
+    // Columns that do not apply (a grasp's tip target, a point reach's frame) read "—", never a
+    // number the run did not measure.
+    assert!(
+        !text.contains("NaN") && !text.contains("0.00e0"),
+        "report.md prints values for columns that do not apply: {text}"
+    );
     for name in ["reach", "reach-rolled", "grasp", "planar"] {
         assert!(text.contains(&format!(" {name} |")), "{name} row: {text}");
         let dir = root.join(name);
@@ -92,6 +98,10 @@ fn reduced_muscle_suite_writes_every_output() {
         let summary: serde_json::Value =
             serde_json::from_reader(File::open(dir.join("summary.json")).unwrap()).unwrap();
         assert_eq!(summary["status"], "completed");
+        assert_eq!(
+            summary["controlled"], true,
+            "{name}: a muscle run is controlled"
+        );
         let checks = summary["acceptance"].as_array().unwrap();
         assert!(!checks.is_empty());
         for c in checks {

@@ -258,3 +258,64 @@ fn controlled_run_without_a_terminal_prints_no_progress_and_quiet_changes_no_out
         );
     }
 }
+
+/// Exit codes of `paper`: 0 when every claim passes or is undecided (a shortened run), 3 when
+/// every experiment ran but a claim failed — with every output written and the failed claim
+/// named on stderr.
+#[test]
+fn a_failed_acceptance_check_exits_3_with_every_output_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("scn");
+    std::fs::create_dir(&dir).unwrap();
+    let base =
+        std::fs::read_to_string(workspace().join("scenarios/paper/two-targets.toml")).unwrap();
+    std::fs::write(dir.join("two-targets.toml"), &base).unwrap();
+    let args = |out: &str| {
+        vec![
+            "paper".to_string(),
+            "-q".into(),
+            "--scenarios".into(),
+            dir.to_str().unwrap().into(),
+            "--duration".into(),
+            "0.01".into(),
+            "--out".into(),
+            out.into(),
+        ]
+    };
+    let run = |out: &str| {
+        let a = args(out);
+        octoarm(
+            &a.iter().map(String::as_str).collect::<Vec<_>>(),
+            tmp.path(),
+        )
+    };
+    let o = run("undecided");
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+
+    // The arm starts 0.5 L0 or more from its first target: d(5 ms) ≤ 1e-9 fails.
+    let failing = base
+        + "\n[[acceptance]]\nclaim = \"d(5 ms) ≤ 1e-9 (cannot hold)\"\nquantity = \"distance_before\"\n\
+           time = 0.005\nmax = 1e-9\n";
+    std::fs::write(dir.join("two-targets.toml"), failing).unwrap();
+    let o = run("failed");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{stderr}");
+    assert!(stderr.contains("1 acceptance check(s) failed"), "{stderr}");
+    assert!(stderr.contains("d(5 ms) ≤ 1e-9 (cannot hold)"), "{stderr}");
+    let out = tmp.path().join("failed");
+    for f in [
+        "report.md",
+        "distance.png",
+        "two-targets/trajectory.npz",
+        "two-targets/summary.json",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("**fail**"), "{report}");
+}

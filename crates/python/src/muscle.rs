@@ -224,13 +224,17 @@ impl MuscleDesign {
     /// `orientation_weight` [N m] (default 1e3). Starts from `initial` (7, n) in [0, 1] (default
     /// zero: COOMM's start); `groups` (7 bools) masks groups (held at zero); stops after
     /// `max_iterations` (≥ 1, default 2000) or, with `stop_when` = (tip error [m], θ_Q [rad], J),
-    /// as soon as all three are met. GIL released. Returns (activations (7, n), report dict:
-    /// `outcome`, `iterations`, `evaluations`, `newton_iterations`, `cost`, `activation_cost`,
-    /// `position_cost`, `orientation_cost`, `tip_error` [m], `orientation_error` [rad],
-    /// `at_zero`, `at_one`, `seconds`, and the design's equilibrium as in `equilibrium`).
+    /// as soon as all three are met; a design that misses them restarts from deterministic
+    /// group levels (Halton), up to `max_starts` starts in all (default 8, 1 = no restart) and
+    /// `max_total_iterations` (default 8000) iterations over all starts (docs/muscles.md,
+    /// "Multi-start"). GIL released. Returns (activations (7, n), report dict: `outcome`,
+    /// `iterations`, `evaluations`, `newton_iterations` (totals over the starts), `starts`,
+    /// `winner` (0: the caller's start), `cost`, `activation_cost`, `position_cost`,
+    /// `orientation_cost`, `tip_error` [m], `orientation_error` [rad], `at_zero`, `at_one`,
+    /// `seconds`, and the design's equilibrium as in `equilibrium`).
     #[pyo3(signature = (target, orientation = None, orientation_weights = None,
         position_weight = 1.0e6, orientation_weight = 1.0e3, initial = None, groups = None,
-        max_iterations = 2000, stop_when = None))]
+        max_iterations = 2000, stop_when = None, max_starts = 8, max_total_iterations = 8000))]
     #[allow(clippy::too_many_arguments)]
     fn solve<'py>(
         &self,
@@ -244,6 +248,8 @@ impl MuscleDesign {
         groups: Option<Vec<bool>>,
         max_iterations: i64,
         stop_when: Option<(f64, f64, f64)>,
+        max_starts: i64,
+        max_total_iterations: i64,
     ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyDict>)> {
         let n = self.n;
         let p = read_vec3(target, "target")?;
@@ -280,8 +286,16 @@ impl MuscleDesign {
         let mut config = DesignConfig {
             max_iterations: check_count("max_iterations", max_iterations, 1)?,
             stop_when,
+            max_starts: check_count("max_starts", max_starts, 1)?,
+            max_total_iterations: check_count("max_total_iterations", max_total_iterations, 1)?,
             ..DesignConfig::default()
         };
+        config.validate().map_err(|e| {
+            PyValueError::new_err(format!(
+                "{} = {} is outside the allowed range {}",
+                e.field, e.value, e.range
+            ))
+        })?;
         if let Some(g) = groups {
             if g.len() != N_GROUPS {
                 return Err(PyValueError::new_err(format!(
@@ -320,6 +334,8 @@ impl MuscleDesign {
         out.set_item("iterations", rep.iterations)?;
         out.set_item("evaluations", rep.evaluations)?;
         out.set_item("newton_iterations", rep.newton_iterations)?;
+        out.set_item("starts", rep.starts)?;
+        out.set_item("winner", rep.winner)?;
         out.set_item("cost", rep.costs.total)?;
         out.set_item("activation_cost", rep.costs.activation)?;
         out.set_item("position_cost", rep.costs.position)?;

@@ -117,6 +117,43 @@ def test_reach_design_meets_its_target_pose():
     np.testing.assert_array_equal(a2[5:], 0.0)
 
 
+def _random_field(rng, n=N):
+    """Per group, with probability 1/2 a linear profile between two U(0, 1) ends (the sweep's
+    rule, docs/muscles.md "Target sweep")."""
+    a = np.zeros((7, n))
+    for g in range(7):
+        if rng.random() < 0.5:
+            a[g] = np.linspace(rng.random(), rng.random(), n)
+    return a
+
+
+def test_multi_start_reaches_a_target_whose_first_start_stalls():
+    # The 74th field of seed 3 is a reachable pose (the equilibrium of known activations) whose
+    # design from a = 0 stops in a local minimum 8 % of L0 away; the restarts (Halton group
+    # levels) find one that meets spec §7 A's bounds.
+    rng = np.random.default_rng(3)
+    for _ in range(73):
+        _random_field(rng)
+    a_true = _random_field(rng)
+    eq = octoarm.MuscleDesign(n_elements=N).equilibrium(a_true)
+    target, frame = np.asarray(eq["tip"]), eq["tip_orientation"]
+    bounds = (1.5e-4 * 0.2, 1e-3, 1e9)
+    _, single = octoarm.MuscleDesign(n_elements=N).solve(
+        target, orientation=frame, stop_when=bounds, max_starts=1)
+    assert single["outcome"] != "bounds_met" and single["starts"] == 1
+    assert single["tip_error"] > 0.01 * 0.2
+    a, multi = octoarm.MuscleDesign(n_elements=N).solve(target, orientation=frame, stop_when=bounds)
+    assert multi["outcome"] == "bounds_met" and multi["starts"] >= 2 and multi["winner"] >= 1
+    assert multi["tip_error"] <= bounds[0] and multi["orientation_error"] <= bounds[1]
+    # The returned activations hold the reported pose (independent of the solver's bookkeeping).
+    x = octoarm.MuscleDesign(n_elements=N).equilibrium(a)["positions"]
+    assert np.linalg.norm(0.5 * (x[-2] + x[-1]) - target) <= bounds[0]
+    with pytest.raises(ValueError, match=r"max_starts = 0 is outside the allowed range \[1, inf\)"):
+        octoarm.MuscleDesign(n_elements=N).solve(target, max_starts=0)
+    with pytest.raises(ValueError, match=r"max_starts = 1001 is outside the allowed range \[1, 1000\]"):
+        octoarm.MuscleDesign(n_elements=N).solve(target, max_starts=1001)
+
+
 def test_design_refuses_bad_inputs_naming_them():
     d = octoarm.MuscleDesign(n_elements=N)
     with pytest.raises(ValueError, match=r"target has shape \(2,\), expected \(3,\)"):

@@ -440,6 +440,8 @@ class MuscleDesign:
         groups: Sequence[bool] | None = None,
         max_iterations: int = 2000,
         stop_when: tuple[float, float, float] | None = None,
+        max_starts: int = 8,
+        max_total_iterations: int = 8000,
     ) -> tuple[_F64, dict[str, Any]]: ...
 
 @final
