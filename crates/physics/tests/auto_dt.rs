@@ -185,7 +185,7 @@ fn guard_rechecks_the_automatic_step_as_the_arm_deforms() {
 /// after the first step does not (dt stays, the guard watches).
 #[test]
 fn use_auto_dt_follows_the_system_until_the_first_step() {
-    use octoarm_physics::{ContactParams, Friction, Plane, Sphere};
+    use octoarm_physics::{ContactParams, Friction, Sphere};
     let mut sim = paper_sim(Settings::default());
     let dt = sim.use_auto_dt().unwrap();
     let limit = sim.system.stable_dt();
@@ -195,17 +195,7 @@ fn use_auto_dt_follows_the_system_until_the_first_step() {
 
     // A floor under the arm with a contact spring 400× the default: ω_contact = 20 × the
     // default's, far above the rod's own ω̂_max, so the limit (and dt) must drop.
-    sim.add_plane(Plane::new(
-        [0.0, -0.05, 0.0],
-        [0.0, 1.0, 0.0],
-        Friction::NONE,
-    ))
-    .unwrap();
-    sim.set_contact(ContactParams {
-        beta: 400.0,
-        ..ContactParams::default()
-    })
-    .unwrap();
+    add_stiff_floor(&mut sim);
     let stiff = sim.system.stable_dt();
     assert!(
         stiff < 0.5 * limit,
@@ -237,8 +227,15 @@ fn use_auto_dt_follows_the_system_until_the_first_step() {
 /// Without `use_auto_dt` the mutators leave dt as given.
 #[test]
 fn fixed_dt_is_never_rechosen() {
-    use octoarm_physics::{ContactParams, Friction, Plane};
     let mut sim = paper_sim(Settings::with_dt(1e-5));
+    add_stiff_floor(&mut sim);
+    assert_eq!(sim.settings().dt, 1e-5);
+    assert_eq!(sim.settings().max_dt_fraction, None);
+}
+
+/// A frictionless floor 5 cm below the arm, with a contact spring 400× the default (β = 400).
+fn add_stiff_floor(sim: &mut Simulation) {
+    use octoarm_physics::{ContactParams, Friction, Plane};
     sim.add_plane(Plane::new(
         [0.0, -0.05, 0.0],
         [0.0, 1.0, 0.0],
@@ -250,6 +247,4 @@ fn fixed_dt_is_never_rechosen() {
         ..ContactParams::default()
     })
     .unwrap();
-    assert_eq!(sim.settings().dt, 1e-5);
-    assert_eq!(sim.settings().max_dt_fraction, None);
 }
