@@ -18,8 +18,9 @@ use crate::error::{ModelError, StepError};
 use crate::internal::{element_loads, voronoi_loads};
 use crate::kernel::Kernel;
 use crate::math::{
-    bjorck, dot, exp_neg_skew, exp_neg_skew_series, mat_mul, orthonormality_defect, Mat3, Vec3,
-    EXP_SERIES_MAX_SQ,
+    asin_over_sin_series, bjorck, dot_r, exp_neg_skew, exp_neg_skew_series_r, log_factor_trig,
+    log_parts, mat_mul, mat_mul_r, orthonormality_defect, Mat3, Real, Vec3, EXP_SERIES_MAX_SQ,
+    LOG_SERIES_MAX_SQ,
 };
 use crate::model::RodModel;
 use crate::simulation::Simulation;
@@ -651,39 +652,121 @@ fn hold_values(sh: &Shared, ch: &mut Chunk) {
     }
 }
 
+/// `LANES` f64 lanes with lane-wise IEEE arithmetic: the `Real` the shared kernels are
+/// instantiated with for a chunk (LLVM turns each operation into one vector instruction).
+#[derive(Debug, Clone, Copy)]
+#[repr(transparent)]
+struct X(L);
+
+macro_rules! lanewise {
+    ($tr:ident, $f:ident, $op:tt) => {
+        impl std::ops::$tr for X {
+            type Output = X;
+            #[inline(always)]
+            fn $f(self, o: X) -> X {
+                let (a, b) = (self.0, o.0);
+                X([a[0] $op b[0], a[1] $op b[1], a[2] $op b[2], a[3] $op b[3]])
+            }
+        }
+    };
+}
+lanewise!(Add, add, +);
+lanewise!(Sub, sub, -);
+lanewise!(Mul, mul, *);
+lanewise!(Div, div, /);
+
+impl std::ops::Neg for X {
+    type Output = X;
+    #[inline(always)]
+    fn neg(self) -> X {
+        let a = self.0;
+        X([-a[0], -a[1], -a[2], -a[3]])
+    }
+}
+
+impl Real for X {
+    #[inline(always)]
+    fn splat(x: f64) -> X {
+        X([x; LANES])
+    }
+}
+
+impl X {
+    #[inline(always)]
+    fn sqrt(self) -> X {
+        let a = self.0;
+        X([a[0].sqrt(), a[1].sqrt(), a[2].sqrt(), a[3].sqrt()])
+    }
+}
+
+#[inline(always)]
+fn s(x: f64) -> X {
+    X::splat(x)
+}
+
+#[inline(always)]
+fn s3(v: Vec3) -> [X; 3] {
+    [s(v[0]), s(v[1]), s(v[2])]
+}
+
+#[inline(always)]
+fn at3(v: &[Vec<L>; 3], i: usize) -> [X; 3] {
+    [X(v[0][i]), X(v[1][i]), X(v[2][i])]
+}
+
+#[inline(always)]
+fn frame_at(d: &[Vec<L>; 9], j: usize) -> [[X; 3]; 3] {
+    [
+        [X(d[0][j]), X(d[1][j]), X(d[2][j])],
+        [X(d[3][j]), X(d[4][j]), X(d[5][j])],
+        [X(d[6][j]), X(d[7][j]), X(d[8][j])],
+    ]
+}
+
 #[inline(always)]
 fn drift(ch: &mut Chunk, h: f64) {
     for c in 0..3 {
         for (x, v) in ch.position[c].iter_mut().zip(&ch.velocity[c]) {
-            for l in 0..LANES {
-                x[l] += h * v[l];
-            }
+            *x = (X(*x) + s(h) * X(*v)).0;
         }
     }
     let n = ch.omega[0].len();
-    let [wx, wy, wz] = &ch.omega;
+    let turn = |w: &[Vec<L>; 3], j: usize| {
+        let w = at3(w, j);
+        [s(h) * w[0], s(h) * w[1], s(h) * w[2]]
+    };
     let mut series_ok = true;
     for j in 0..n {
+        let a = turn(&ch.omega, j);
+        let t2 = dot_r(a, a);
         for l in 0..LANES {
-            let a = [h * wx[j][l], h * wy[j][l], h * wz[j][l]];
-            series_ok &= dot(a, a) < EXP_SERIES_MAX_SQ;
+            series_ok &= t2.0[l] < EXP_SERIES_MAX_SQ;
         }
     }
     let d = &mut ch.director;
     for j in 0..n {
-        for l in 0..LANES {
-            let a = [h * wx[j][l], h * wy[j][l], h * wz[j][l]];
-            // `exp_neg_skew` equals the series where every |a|² is below its bound.
-            let r = if series_ok {
-                exp_neg_skew_series(a)
-            } else {
-                exp_neg_skew(a)
-            };
-            let q: Mat3 = std::array::from_fn(|r| std::array::from_fn(|c| d[3 * r + c][j][l]));
-            let p = mat_mul(&r, &q);
-            for k in 0..9 {
-                d[k][j][l] = p[k / 3][k % 3];
+        let a = turn(&ch.omega, j);
+        let p = if series_ok {
+            mat_mul_r(&exp_neg_skew_series_r(a), &frame_at(d, j))
+        } else {
+            // Some lane turns by |a| ≥ 0.1 somewhere: every frame takes `exp_neg_skew` (libm
+            // inside), per lane, as `step` does then; it equals the series below the bound.
+            let q = frame_at(d, j);
+            let mut p = q;
+            for l in 0..LANES {
+                let r = exp_neg_skew([a[0].0[l], a[1].0[l], a[2].0[l]]);
+                let ql: Mat3 = q.map(|row| row.map(|x| x.0[l]));
+                let pl = mat_mul(&r, &ql);
+                for (pr, plr) in p.iter_mut().zip(pl) {
+                    for (pc, v) in pr.iter_mut().zip(plr) {
+                        pc.0[l] = v;
+                    }
+                }
             }
+            p
+        };
+        for k in 0..9 {
+            d[k][j] = p[k / 3][k % 3].0;
         }
     }
 }
@@ -692,92 +775,71 @@ fn drift(ch: &mut Chunk, h: f64) {
 fn internal_loads(sh: &Shared, ch: &mut Chunk) {
     let m = &*sh.model;
     let n = m.n_elements;
-    let [px, py, pz] = &ch.position;
-    let [vx, vy, vz] = &ch.velocity;
-    let [wx, wy, wz] = &ch.omega;
-    let d = &ch.director;
-    let frame = |j: usize, l: usize| -> Mat3 {
-        std::array::from_fn(|r| std::array::from_fn(|c| d[3 * r + c][j][l]))
+    let (pos, vel, omega, d) = (&ch.position, &ch.velocity, &ch.omega, &ch.director);
+    let edge = |v: &[Vec<L>; 3], j: usize| {
+        let (a, b) = (at3(v, j), at3(v, j + 1));
+        [b[0] - a[0], b[1] - a[1], b[2] - a[2]]
     };
     let (inv_len, dil) = (&mut ch.inv_length, &mut ch.dilatation);
     for j in 0..n {
-        for l in 0..LANES {
-            let dx = [
-                px[j + 1][l] - px[j][l],
-                py[j + 1][l] - py[j][l],
-                pz[j + 1][l] - pz[j][l],
-            ];
-            let len = dot(dx, dx).sqrt();
-            inv_len[j][l] = 1.0 / len;
-            dil[j][l] = len * m.inv_rest_length[j];
-        }
+        let dx = edge(pos, j);
+        let len = dot_r(dx, dx).sqrt();
+        inv_len[j] = (s(1.0) / len).0;
+        dil[j] = (len * s(m.inv_rest_length[j])).0;
     }
-    let [sx, sy, sz] = &ch.rest_sigma;
-    let f = &mut ch.elem_force;
-    let tq = &mut ch.torque;
+    let (f, tq) = (&mut ch.elem_force, &mut ch.torque);
     for j in 0..n {
-        for l in 0..LANES {
-            let dx = [
-                px[j + 1][l] - px[j][l],
-                py[j + 1][l] - py[j][l],
-                pz[j + 1][l] - pz[j][l],
-            ];
-            let rates = (
-                [
-                    vx[j + 1][l] - vx[j][l],
-                    vy[j + 1][l] - vy[j][l],
-                    vz[j + 1][l] - vz[j][l],
-                ],
-                [wx[j][l], wy[j][l], wz[j][l]],
-                m.inertia[j],
-            );
-            let el = element_loads(
-                dx,
-                inv_len[j][l],
-                dil[j][l],
-                m.rest_length[j],
-                m.inv_rest_length[j],
-                &frame(j, l),
-                m.shear_stiffness[j],
-                [sx[j][l], sy[j][l], sz[j][l]],
-                Some(rates),
-            );
-            for c in 0..3 {
-                f[c][j][l] = el.force[c];
-                tq[c][j][l] = el.torque[c];
-            }
+        let rates = (edge(vel, j), at3(omega, j), s3(m.inertia[j]));
+        let el = element_loads(
+            edge(pos, j),
+            X(inv_len[j]),
+            X(dil[j]),
+            s(m.rest_length[j]),
+            s(m.inv_rest_length[j]),
+            &frame_at(d, j),
+            s3(m.shear_stiffness[j]),
+            at3(&ch.rest_sigma, j),
+            Some(rates),
+        );
+        for c in 0..3 {
+            f[c][j] = el.force[c].0;
+            tq[c][j] = el.torque[c].0;
         }
     }
-    for c in 0..3 {
-        f[c][n] = ZERO;
+    for fc in f.iter_mut() {
+        fc[n] = ZERO;
     }
     let nk = n - 1;
     let inv_e3 = &mut ch.inv_eps_cubed;
     for k in 0..nk {
-        for l in 0..LANES {
-            let eps = 0.5
-                * (dil[k][l] * m.rest_length[k] + dil[k + 1][l] * m.rest_length[k + 1])
-                * m.inv_rest_voronoi[k];
-            inv_e3[k][l] = 1.0 / (eps * eps * eps);
-        }
+        let lr = &m.rest_length;
+        let eps = s(0.5)
+            * (X(dil[k]) * s(lr[k]) + X(dil[k + 1]) * s(lr[k + 1]))
+            * s(m.inv_rest_voronoi[k]);
+        inv_e3[k] = (s(1.0) / (eps * eps * eps)).0;
     }
-    let [kx, ky, kz] = &ch.rest_kappa;
     let (tb, hh) = (&mut ch.couple_pad, &mut ch.coupling_pad);
     for k in 0..nk {
-        for l in 0..LANES {
-            let v = voronoi_loads(
-                &frame(k + 1, l),
-                &frame(k, l),
-                m.inv_rest_voronoi[k],
-                m.rest_voronoi_length[k],
-                m.bend_stiffness[k],
-                [kx[k][l], ky[k][l], kz[k][l]],
-                inv_e3[k][l],
-            );
-            for c in 0..3 {
-                tb[c][k + 1][l] = v.scaled_couple[c];
-                hh[c][k + 1][l] = v.coupling[c];
+        // `log_relative` lane by lane: the series where it applies, libm's atan2 elsewhere.
+        let (w, c, s2) = log_parts(&frame_at(d, k + 1), &frame_at(d, k));
+        let mut factor = asin_over_sin_series(s2);
+        let series = |l: usize| c.0[l] > 0.0 && s2.0[l] < LOG_SERIES_MAX_SQ;
+        if !(series(0) & series(1) & series(2) & series(3)) {
+            for l in (0..LANES).filter(|&l| !series(l)) {
+                factor.0[l] = log_factor_trig(s2.0[l], c.0[l]).0;
             }
+        }
+        let v = voronoi_loads(
+            [factor * w[0], factor * w[1], factor * w[2]],
+            s(m.inv_rest_voronoi[k]),
+            s(m.rest_voronoi_length[k]),
+            s3(m.bend_stiffness[k]),
+            at3(&ch.rest_kappa, k),
+            X(inv_e3[k]),
+        );
+        for c in 0..3 {
+            tb[c][k + 1] = v.scaled_couple[c].0;
+            hh[c][k + 1] = v.coupling[c].0;
         }
     }
     for c in 0..3 {
@@ -789,9 +851,8 @@ fn internal_loads(sh: &Shared, ch: &mut Chunk) {
     // Loop C of `InternalLoads`: bend/twist difference and coupling average onto elements.
     for c in 0..3 {
         for j in 0..n {
-            for l in 0..LANES {
-                tq[c][j][l] += tb[c][j + 1][l] - tb[c][j][l] + hh[c][j + 1][l] + hh[c][j][l];
-            }
+            let t = X(tq[c][j]) + (X(tb[c][j + 1]) - X(tb[c][j]) + X(hh[c][j + 1]) + X(hh[c][j]));
+            tq[c][j] = t.0;
         }
     }
 }
@@ -802,39 +863,33 @@ fn kick(sh: &Shared, ch: &mut Chunk, dt: f64) {
     let k = &sh.kick;
     let n = m.n_elements;
     let f = &ch.elem_force;
-    let mut diss = ZERO;
+    let mut diss = s(0.0);
     // Nodes 1..=n (the clamped base node is not kicked); the nodal force is f_i − f_{i−1}
     // (loop D), plus the external force, zero here (added all the same: x + 0 turns −0 to +0).
     for i in 1..=n {
-        for l in 0..LANES {
-            let mut mid = [0.0; 3];
-            for c in 0..3 {
-                let force = f[c][i][l] - f[c][i - 1][l];
-                let a = (force + 0.0) * m.inv_node_mass[i];
-                let v = &mut ch.velocity[c][i][l];
-                let new;
-                (new, mid[c]) = kick_component(k.node_decay[i], k.node_kick[i], *v, a);
-                *v = new;
-            }
-            diss[l] += m.node_mass[i] * k.node_rate[i] * dot(mid, mid);
+        let mut mid = [s(0.0); 3];
+        for c in 0..3 {
+            let force = X(f[c][i]) - X(f[c][i - 1]);
+            let a = (force + s(0.0)) * s(m.inv_node_mass[i]);
+            let v = &mut ch.velocity[c][i];
+            let new;
+            (new, mid[c]) = kick_component(s(k.node_decay[i]), s(k.node_kick[i]), X(*v), a);
+            *v = new.0;
         }
+        diss = diss + s(m.node_mass[i]) * s(k.node_rate[i]) * dot_r(mid, mid);
     }
-    let dil = &ch.dilatation;
-    let tq = &ch.torque;
+    let (dil, tq) = (&ch.dilatation, &ch.torque);
     for j in 1..n {
-        for l in 0..LANES {
-            let e = dil[j][l];
-            for c in 0..3 {
-                let j_over_e = m.inertia[j][c] / e;
-                let alpha = e * (tq[c][j][l] + 0.0) * m.inv_inertia[j][c];
-                let w = &mut ch.omega[c][j][l];
-                let (new, mid) = kick_component(k.element_decay0[j], k.element_kick0[j], *w, alpha);
-                *w = new;
-                diss[l] += j_over_e * k.element_rate0[j] * mid * mid;
-            }
+        let e = X(dil[j]);
+        for c in 0..3 {
+            let j_over_e = s(m.inertia[j][c]) / e;
+            let alpha = e * (X(tq[c][j]) + s(0.0)) * s(m.inv_inertia[j][c]);
+            let w = &mut ch.omega[c][j];
+            let (new, mid) =
+                kick_component(s(k.element_decay0[j]), s(k.element_kick0[j]), X(*w), alpha);
+            *w = new.0;
+            diss = diss + j_over_e * s(k.element_rate0[j]) * mid * mid;
         }
     }
-    for l in 0..LANES {
-        ch.dissipated[l] += dt * diss[l];
-    }
+    ch.dissipated = (X(ch.dissipated) + s(dt) * diss).0;
 }

@@ -4,7 +4,10 @@
 //! (with the velocity-dependent torques) and `ElasticLoads` (without), which controllers use to
 //! evaluate loads for other rest strains.
 
-use crate::math::{cross, dot, log_relative, mat_t_vec, mat_vec, Mat3, Vec3};
+use crate::math::{
+    cross, cross_r, dot, dot_r, log_relative, mat_t_vec, mat_t_vec_r, mat_vec, mat_vec_r, Mat3,
+    Real, Vec3,
+};
 use crate::model::RodModel;
 use crate::muscles::{MuscleModel, MuscleScratch, Resultants, Strains, N_GROUPS};
 use crate::state::{RodAccess, RodState, RodView, SystemState};
@@ -292,8 +295,7 @@ impl InternalLoads {
         let (cpx, cpy, cpz) = split3(&mut self.couple, k0, nk);
         for k in 0..nk {
             let v = voronoi_loads(
-                &q[k + 1],
-                &q[k],
+                log_relative(&q[k + 1], &q[k]).0,
                 inv_dr[k],
                 dr[k],
                 bend[k],
@@ -449,51 +451,51 @@ impl InternalLoads {
 
 /// Loop A's results for one element (eq. 2.2, 4.1, 4.3): unit tangent t (lab), strain σ and
 /// stress n (material), element force Qᵀn/e (lab) and the element-local torque (material).
-pub(crate) struct ElementLoads {
-    pub tangent: Vec3,
-    pub sigma: Vec3,
-    pub stress: Vec3,
-    pub force: Vec3,
-    pub torque: Vec3,
+pub(crate) struct ElementLoads<S> {
+    pub tangent: [S; 3],
+    pub sigma: [S; 3],
+    pub stress: [S; 3],
+    pub force: [S; 3],
+    pub torque: [S; 3],
 }
 
 /// One element of loop A, from its edge `dx` = x_{j+1} − x_j, 1/l, dilatation e, rest length
 /// l̂ and 1/l̂, frame, shear stiffness and rest strain; `rates` = (v_{j+1} − v_j, ω_j, J_j) adds
-/// the gyroscopic and unsteady-dilatation torques. The stepper and `batch` share it, so that
-/// both perform the same IEEE operations.
+/// the gyroscopic and unsteady-dilatation torques. The stepper (`f64`) and `batch` (lanes)
+/// share it, so that both perform the same IEEE operations.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub(crate) fn element_loads(
-    dx: Vec3,
-    inv_l: f64,
-    e: f64,
-    lr: f64,
-    inv_lr: f64,
-    qj: &Mat3,
-    stiff: Vec3,
-    s0: Vec3,
-    rates: Option<(Vec3, Vec3, Vec3)>,
-) -> ElementLoads {
+pub(crate) fn element_loads<S: Real>(
+    dx: [S; 3],
+    inv_l: S,
+    e: S,
+    lr: S,
+    inv_lr: S,
+    qj: &[[S; 3]; 3],
+    stiff: [S; 3],
+    s0: [S; 3],
+    rates: Option<([S; 3], [S; 3], [S; 3])>,
+) -> ElementLoads<S> {
     let t = [dx[0] * inv_l, dx[1] * inv_l, dx[2] * inv_l];
     let inv_e = lr * inv_l;
-    let qt = mat_vec(qj, t);
-    let sg = [e * qt[0], e * qt[1], e * qt[2] - 1.0];
+    let qt = mat_vec_r(qj, t);
+    let sg = [e * qt[0], e * qt[1], e * qt[2] - S::splat(1.0)];
     let nn = [
         stiff[0] * (sg[0] - s0[0]),
         stiff[1] * (sg[1] - s0[1]),
         stiff[2] * (sg[2] - s0[2]),
     ];
-    let fl = mat_t_vec(qj, nn);
-    let c = cross(qt, nn);
+    let fl = mat_t_vec_r(qj, nn);
+    let c = cross_r(qt, nn);
     let mut tq = [lr * c[0], lr * c[1], lr * c[2]];
     if let Some((dv, w, inertia)) = rates {
-        let edot = dot(t, dv) * inv_lr;
+        let edot = dot_r(t, dv) * inv_lr;
         let g = [
             inertia[0] * w[0] * inv_e,
             inertia[1] * w[1] * inv_e,
             inertia[2] * w[2] * inv_e,
         ];
-        let gw = cross(g, w);
+        let gw = cross_r(g, w);
         let r = edot * inv_e;
         tq = [
             tq[0] + gw[0] + g[0] * r,
@@ -512,34 +514,32 @@ pub(crate) fn element_loads(
 
 /// Loop B's results for one Voronoi point (eq. 2.3, 3.3): curvature κ, couple τ, τ/ε³ and
 /// ½ D̂ κ × τ/ε³ (material).
-pub(crate) struct VoronoiLoads {
-    pub kappa: Vec3,
-    pub couple: Vec3,
-    pub scaled_couple: Vec3,
-    pub coupling: Vec3,
+pub(crate) struct VoronoiLoads<S> {
+    pub kappa: [S; 3],
+    pub couple: [S; 3],
+    pub scaled_couple: [S; 3],
+    pub coupling: [S; 3],
 }
 
-/// One Voronoi point of loop B between frames `q_next` and `q`, from 1/D̂, D̂, the bend
-/// stiffness, the rest curvature and 1/ε³ (shared by the stepper and `batch`).
+/// One Voronoi point of loop B from the rotation vector Θ = Log(Q_{k+1} Q_kᵀ), 1/D̂, D̂, the
+/// bend stiffness, the rest curvature and 1/ε³ (shared by the stepper and `batch`).
 #[inline(always)]
-pub(crate) fn voronoi_loads(
-    q_next: &Mat3,
-    q: &Mat3,
-    inv_dr: f64,
-    dr: f64,
-    bend: Vec3,
-    kap0: Vec3,
-    inv_e3: f64,
-) -> VoronoiLoads {
-    let (theta, _) = log_relative(q_next, q);
+pub(crate) fn voronoi_loads<S: Real>(
+    theta: [S; 3],
+    inv_dr: S,
+    dr: S,
+    bend: [S; 3],
+    kap0: [S; 3],
+    inv_e3: S,
+) -> VoronoiLoads<S> {
     let kap = [-theta[0] * inv_dr, -theta[1] * inv_dr, -theta[2] * inv_dr];
     let tau = [
         bend[0] * (kap[0] - kap0[0]),
         bend[1] * (kap[1] - kap0[1]),
         bend[2] * (kap[2] - kap0[2]),
     ];
-    let kt = cross(kap, tau);
-    let hf = 0.5 * dr * inv_e3;
+    let kt = cross_r(kap, tau);
+    let hf = S::splat(0.5) * dr * inv_e3;
     VoronoiLoads {
         kappa: kap,
         couple: tau,

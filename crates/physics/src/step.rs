@@ -14,7 +14,7 @@ use crate::kernel::Kernel;
 use crate::loads::ExternalLoads;
 use crate::math::{
     bjorck, cross, dot, exp_neg_skew, exp_neg_skew_series, log_relative, mat_mul, mat_vec,
-    orthonormality_defect, Vec3, EXP_SERIES_MAX_SQ,
+    orthonormality_defect, Real, Vec3, EXP_SERIES_MAX_SQ,
 };
 use crate::rod_contact::{add_rod_contact_forces, RodContactScratch};
 use crate::state::{RodAccess, SystemState};
@@ -771,9 +771,9 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
 /// the new value and the midpoint velocity the work and dissipation sums use. Shared with
 /// `batch`, so that both perform the same IEEE operations.
 #[inline(always)]
-pub(crate) fn kick_component(decay: f64, kick: f64, old: f64, accel: f64) -> (f64, f64) {
+pub(crate) fn kick_component<S: Real>(decay: S, kick: S, old: S, accel: S) -> (S, S) {
     let new = decay * old + kick * accel;
-    (new, 0.5 * (old + new))
+    (new, S::splat(0.5) * (old + new))
 }
 
 fn apply_analytical_dampers(system: &RodSystem, state: &mut SystemState, ws: &Workspace, dt: f64) {
