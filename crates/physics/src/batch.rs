@@ -254,10 +254,7 @@ impl RodBatch {
     /// Run with `kernel` from now on; refused (false, nothing changed) when the CPU cannot run
     /// it. Every kernel gives the same bits.
     pub fn set_kernel(&mut self, kernel: Kernel) -> bool {
-        if kernel.is_available() {
-            self.kernel = kernel;
-        }
-        self.kernel == kernel
+        kernel.switch(&mut self.kernel)
     }
 
     fn lane_index(&self, lane: usize) -> Result<(usize, usize), BatchError> {

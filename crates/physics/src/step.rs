@@ -122,10 +122,7 @@ impl Workspace {
     /// CPU cannot run it. Every kernel gives bit-identical results; this is for testing and
     /// benchmarking the variants.
     pub fn set_kernel(&mut self, kernel: Kernel) -> bool {
-        if kernel.is_available() {
-            self.kernel = kernel;
-        }
-        self.kernel == kernel
+        kernel.switch(&mut self.kernel)
     }
 
     /// Nodal forces [N] (lab) the actuation produced in the last step, system node order; None
