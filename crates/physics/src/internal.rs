@@ -4,7 +4,10 @@
 //! (with the velocity-dependent torques) and `ElasticLoads` (without), which controllers use to
 //! evaluate loads for other rest strains.
 
-use crate::math::{cross, dot, log_relative, mat_t_vec, mat_vec, Mat3, Vec3};
+use crate::math::{
+    cross, cross_r, dot, dot_r, log_relative, mat_t_vec, mat_t_vec_r, mat_vec, mat_vec_r, Mat3,
+    Real, Vec3,
+};
 use crate::model::RodModel;
 use crate::muscles::{MuscleModel, MuscleScratch, Resultants, Strains, N_GROUPS};
 use crate::state::{RodAccess, RodState, RodView, SystemState};
@@ -253,39 +256,18 @@ impl InternalLoads {
             let (tqx, tqy, tqz) = split3(&mut self.torque, e0, n);
             for j in 0..n {
                 let dx = [px[j + 1] - px[j], py[j + 1] - py[j], pz[j + 1] - pz[j]];
-                let inv_l = inv_len[j];
-                let t = [dx[0] * inv_l, dx[1] * inv_l, dx[2] * inv_l];
-                let e = dil[j];
-                let inv_e = lr[j] * inv_l;
-                let qj = &q[j];
-                let qt = mat_vec(qj, t);
-                let sg = [e * qt[0], e * qt[1], e * qt[2] - 1.0];
-                let nn = [
-                    stiff[j][0] * (sg[0] - s0[j][0]),
-                    stiff[j][1] * (sg[1] - s0[j][1]),
-                    stiff[j][2] * (sg[2] - s0[j][2]),
-                ];
-                let fl = mat_t_vec(qj, nn);
-                f[j] = [fl[0] * inv_e, fl[1] * inv_e, fl[2] * inv_e];
-                let c = cross(qt, nn);
-                let mut tq = [lr[j] * c[0], lr[j] * c[1], lr[j] * c[2]];
-                if with_velocity_terms {
-                    let dv = [vx[j + 1] - vx[j], vy[j + 1] - vy[j], vz[j + 1] - vz[j]];
-                    let edot = dot(t, dv) * inv_lr[j];
-                    let w = [wx[j], wy[j], wz[j]];
-                    let g = [
-                        inertia[j][0] * w[0] * inv_e,
-                        inertia[j][1] * w[1] * inv_e,
-                        inertia[j][2] * w[2] * inv_e,
-                    ];
-                    let gw = cross(g, w);
-                    let r = edot * inv_e;
-                    tq = [
-                        tq[0] + gw[0] + g[0] * r,
-                        tq[1] + gw[1] + g[1] * r,
-                        tq[2] + gw[2] + g[2] * r,
-                    ];
-                }
+                let rates = with_velocity_terms.then(|| {
+                    (
+                        [vx[j + 1] - vx[j], vy[j + 1] - vy[j], vz[j + 1] - vz[j]],
+                        [wx[j], wy[j], wz[j]],
+                        inertia[j],
+                    )
+                });
+                let el = element_loads(
+                    dx, inv_len[j], dil[j], lr[j], inv_lr[j], &q[j], stiff[j], s0[j], rates,
+                );
+                f[j] = el.force;
+                let (t, sg, nn, tq) = (el.tangent, el.sigma, el.stress, el.torque);
                 (tgx[j], tgy[j], tgz[j]) = (t[0], t[1], t[2]);
                 (sgx[j], sgy[j], sgz[j]) = (sg[0], sg[1], sg[2]);
                 (stx[j], sty[j], stz[j]) = (nn[0], nn[1], nn[2]);
@@ -312,21 +294,17 @@ impl InternalLoads {
         let (kpx, kpy, kpz) = split3(&mut self.kappa, k0, nk);
         let (cpx, cpy, cpz) = split3(&mut self.couple, k0, nk);
         for k in 0..nk {
-            let (theta, _) = log_relative(&q[k + 1], &q[k]);
-            let kap = [
-                -theta[0] * inv_dr[k],
-                -theta[1] * inv_dr[k],
-                -theta[2] * inv_dr[k],
-            ];
-            let tau = [
-                bend[k][0] * (kap[0] - kap0[k][0]),
-                bend[k][1] * (kap[1] - kap0[k][1]),
-                bend[k][2] * (kap[2] - kap0[k][2]),
-            ];
-            let kt = cross(kap, tau);
-            let hf = 0.5 * dr[k] * inv_e3[k];
-            tb[k + 1] = [tau[0] * inv_e3[k], tau[1] * inv_e3[k], tau[2] * inv_e3[k]];
-            hh[k + 1] = [kt[0] * hf, kt[1] * hf, kt[2] * hf];
+            let v = voronoi_loads(
+                log_relative(&q[k + 1], &q[k]).0,
+                inv_dr[k],
+                dr[k],
+                bend[k],
+                kap0[k],
+                inv_e3[k],
+            );
+            tb[k + 1] = v.scaled_couple;
+            hh[k + 1] = v.coupling;
+            let (kap, tau) = (v.kappa, v.couple);
             (kpx[k], kpy[k], kpz[k]) = (kap[0], kap[1], kap[2]);
             (cpx[k], cpy[k], cpz[k]) = (tau[0], tau[1], tau[2]);
         }
@@ -468,6 +446,105 @@ impl InternalLoads {
             fy[i] = f[i][1] - f[i - 1][1];
             fz[i] = f[i][2] - f[i - 1][2];
         }
+    }
+}
+
+/// Loop A's results for one element (eq. 2.2, 4.1, 4.3): unit tangent t (lab), strain σ and
+/// stress n (material), element force Qᵀn/e (lab) and the element-local torque (material).
+pub(crate) struct ElementLoads<S> {
+    pub tangent: [S; 3],
+    pub sigma: [S; 3],
+    pub stress: [S; 3],
+    pub force: [S; 3],
+    pub torque: [S; 3],
+}
+
+/// One element of loop A, from its edge `dx` = x_{j+1} − x_j, 1/l, dilatation e, rest length
+/// l̂ and 1/l̂, frame, shear stiffness and rest strain; `rates` = (v_{j+1} − v_j, ω_j, J_j) adds
+/// the gyroscopic and unsteady-dilatation torques. The stepper (`f64`) and `batch` (lanes)
+/// share it, so that both perform the same IEEE operations.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn element_loads<S: Real>(
+    dx: [S; 3],
+    inv_l: S,
+    e: S,
+    lr: S,
+    inv_lr: S,
+    qj: &[[S; 3]; 3],
+    stiff: [S; 3],
+    s0: [S; 3],
+    rates: Option<([S; 3], [S; 3], [S; 3])>,
+) -> ElementLoads<S> {
+    let t = [dx[0] * inv_l, dx[1] * inv_l, dx[2] * inv_l];
+    let inv_e = lr * inv_l;
+    let qt = mat_vec_r(qj, t);
+    let sg = [e * qt[0], e * qt[1], e * qt[2] - S::splat(1.0)];
+    let nn = [
+        stiff[0] * (sg[0] - s0[0]),
+        stiff[1] * (sg[1] - s0[1]),
+        stiff[2] * (sg[2] - s0[2]),
+    ];
+    let fl = mat_t_vec_r(qj, nn);
+    let c = cross_r(qt, nn);
+    let mut tq = [lr * c[0], lr * c[1], lr * c[2]];
+    if let Some((dv, w, inertia)) = rates {
+        let edot = dot_r(t, dv) * inv_lr;
+        let g = [
+            inertia[0] * w[0] * inv_e,
+            inertia[1] * w[1] * inv_e,
+            inertia[2] * w[2] * inv_e,
+        ];
+        let gw = cross_r(g, w);
+        let r = edot * inv_e;
+        tq = [
+            tq[0] + gw[0] + g[0] * r,
+            tq[1] + gw[1] + g[1] * r,
+            tq[2] + gw[2] + g[2] * r,
+        ];
+    }
+    ElementLoads {
+        tangent: t,
+        sigma: sg,
+        stress: nn,
+        force: [fl[0] * inv_e, fl[1] * inv_e, fl[2] * inv_e],
+        torque: tq,
+    }
+}
+
+/// Loop B's results for one Voronoi point (eq. 2.3, 3.3): curvature κ, couple τ, τ/ε³ and
+/// ½ D̂ κ × τ/ε³ (material).
+pub(crate) struct VoronoiLoads<S> {
+    pub kappa: [S; 3],
+    pub couple: [S; 3],
+    pub scaled_couple: [S; 3],
+    pub coupling: [S; 3],
+}
+
+/// One Voronoi point of loop B from the rotation vector Θ = Log(Q_{k+1} Q_kᵀ), 1/D̂, D̂, the
+/// bend stiffness, the rest curvature and 1/ε³ (shared by the stepper and `batch`).
+#[inline(always)]
+pub(crate) fn voronoi_loads<S: Real>(
+    theta: [S; 3],
+    inv_dr: S,
+    dr: S,
+    bend: [S; 3],
+    kap0: [S; 3],
+    inv_e3: S,
+) -> VoronoiLoads<S> {
+    let kap = [-theta[0] * inv_dr, -theta[1] * inv_dr, -theta[2] * inv_dr];
+    let tau = [
+        bend[0] * (kap[0] - kap0[0]),
+        bend[1] * (kap[1] - kap0[1]),
+        bend[2] * (kap[2] - kap0[2]),
+    ];
+    let kt = cross_r(kap, tau);
+    let hf = S::splat(0.5) * dr * inv_e3;
+    VoronoiLoads {
+        kappa: kap,
+        couple: tau,
+        scaled_couple: [tau[0] * inv_e3, tau[1] * inv_e3, tau[2] * inv_e3],
+        coupling: [kt[0] * hf, kt[1] * hf, kt[2] * hf],
     }
 }
 

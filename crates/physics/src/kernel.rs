@@ -46,6 +46,15 @@ impl Kernel {
         }
     }
 
+    /// Set `current` to this kernel when the CPU can run it; returns whether `current` is now
+    /// this kernel (the rule of `Workspace::set_kernel` and `RodBatch::set_kernel`).
+    pub(crate) fn switch(self, current: &mut Kernel) -> bool {
+        if self.is_available() {
+            *current = self;
+        }
+        *current == self
+    }
+
     /// The best kernel this CPU supports, ignoring `OCTOARM_KERNEL`.
     pub fn best() -> Kernel {
         if Kernel::Avx2.is_available() {

@@ -20,6 +20,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod actuation;
+pub mod batch;
 pub mod contact;
 pub mod damping;
 pub mod ends;
@@ -41,6 +42,7 @@ pub mod store;
 pub mod system;
 
 pub use actuation::Actuation;
+pub use batch::{BatchError, RodBatch};
 pub use contact::{
     closest_points, contact_energy, max_penetration, obstacle_energy, obstacle_penetration,
     ContactParams, Cylinder, Friction, Obstacles, Plane, Sphere,

@@ -10,15 +10,48 @@ pub type Mat3 = [[f64; 3]; 3];
 /// The identity matrix.
 pub const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
+/// A number the shared kernels compute with: `f64`, or a group of `f64` lanes (`batch`) computed
+/// lane by lane with the same IEEE operations. The kernels below are written once over `Real`
+/// and the public `f64` functions call them, so a batched lane and a lone rod perform the same
+/// operations in the same order (constants enter through `splat`, folded at compile time).
+pub(crate) trait Real:
+    Copy
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+    + std::ops::Neg<Output = Self>
+{
+    /// The value `x` (in every lane).
+    fn splat(x: f64) -> Self;
+}
+
+impl Real for f64 {
+    #[inline(always)]
+    fn splat(x: f64) -> f64 {
+        x
+    }
+}
+
 /// Dot product.
 #[inline(always)]
 pub fn dot(a: Vec3, b: Vec3) -> f64 {
+    dot_r(a, b)
+}
+
+#[inline(always)]
+pub(crate) fn dot_r<S: Real>(a: [S; 3], b: [S; 3]) -> S {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Cross product a × b.
 #[inline(always)]
 pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    cross_r(a, b)
+}
+
+#[inline(always)]
+pub(crate) fn cross_r<S: Real>(a: [S; 3], b: [S; 3]) -> [S; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -74,12 +107,22 @@ pub fn normalize(a: Vec3) -> Option<Vec3> {
 /// Q a: lab → material components when Q is a director matrix.
 #[inline(always)]
 pub fn mat_vec(q: &Mat3, a: Vec3) -> Vec3 {
-    [dot(q[0], a), dot(q[1], a), dot(q[2], a)]
+    mat_vec_r(q, a)
+}
+
+#[inline(always)]
+pub(crate) fn mat_vec_r<S: Real>(q: &[[S; 3]; 3], a: [S; 3]) -> [S; 3] {
+    [dot_r(q[0], a), dot_r(q[1], a), dot_r(q[2], a)]
 }
 
 /// Qᵀ a: material → lab components when Q is a director matrix.
 #[inline(always)]
 pub fn mat_t_vec(q: &Mat3, a: Vec3) -> Vec3 {
+    mat_t_vec_r(q, a)
+}
+
+#[inline(always)]
+pub(crate) fn mat_t_vec_r<S: Real>(q: &[[S; 3]; 3], a: [S; 3]) -> [S; 3] {
     [
         q[0][0] * a[0] + q[1][0] * a[1] + q[2][0] * a[2],
         q[0][1] * a[0] + q[1][1] * a[1] + q[2][1] * a[2],
@@ -90,7 +133,12 @@ pub fn mat_t_vec(q: &Mat3, a: Vec3) -> Vec3 {
 /// A B.
 #[inline(always)]
 pub fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
-    let mut c = [[0.0; 3]; 3];
+    mat_mul_r(a, b)
+}
+
+#[inline(always)]
+pub(crate) fn mat_mul_r<S: Real>(a: &[[S; 3]; 3], b: &[[S; 3]; 3]) -> [[S; 3]; 3] {
+    let mut c = [[S::splat(0.0); 3]; 3];
     for r in 0..3 {
         for col in 0..3 {
             c[r][col] = a[r][0] * b[0][col] + a[r][1] * b[1][col] + a[r][2] * b[2][col];
@@ -144,38 +192,52 @@ pub fn exp_neg_skew(a: Vec3) -> Mat3 {
 /// divisions per frame, about 9 % of the step time (spec §14: precompute reciprocals).
 #[inline(always)]
 pub fn exp_neg_skew_series(a: Vec3) -> Mat3 {
-    let t2 = dot(a, a);
-    let s = 1.0
-        - t2 * (1.0 / 6.0)
-            * (1.0 - t2 * (1.0 / 20.0) * (1.0 - t2 * (1.0 / 42.0) * (1.0 - t2 * (1.0 / 72.0))));
-    let c = 0.5
-        * (1.0
-            - t2 * (1.0 / 12.0)
-                * (1.0
-                    - t2 * (1.0 / 30.0) * (1.0 - t2 * (1.0 / 56.0) * (1.0 - t2 * (1.0 / 90.0)))));
-    rodrigues(a, s, c)
+    exp_neg_skew_series_r(a)
+}
+
+#[inline(always)]
+pub(crate) fn exp_neg_skew_series_r<S: Real>(a: [S; 3]) -> [[S; 3]; 3] {
+    let k = S::splat;
+    let one = k(1.0);
+    let t2 = dot_r(a, a);
+    let s = one
+        - t2 * k(1.0 / 6.0)
+            * (one - t2 * k(1.0 / 20.0) * (one - t2 * k(1.0 / 42.0) * (one - t2 * k(1.0 / 72.0))));
+    let c = k(0.5)
+        * (one
+            - t2 * k(1.0 / 12.0)
+                * (one
+                    - t2 * k(1.0 / 30.0)
+                        * (one - t2 * k(1.0 / 56.0) * (one - t2 * k(1.0 / 90.0)))));
+    rodrigues_r(a, s, c)
 }
 
 /// I − s[a]× + c[a]×² with s = sin θ/θ, c = (1 − cos θ)/θ² (θ = |a|): exp(−[a]×) from
 /// coefficients the caller already has (the control crate's statics also needs c).
 #[inline(always)]
 pub fn rodrigues(a: Vec3, s: f64, c: f64) -> Mat3 {
+    rodrigues_r(a, s, c)
+}
+
+#[inline(always)]
+pub(crate) fn rodrigues_r<S: Real>(a: [S; 3], s: S, c: S) -> [[S; 3]; 3] {
     let (a0, a1, a2) = (a[0], a[1], a[2]);
+    let one = S::splat(1.0);
     [
         [
-            1.0 - c * (a1 * a1 + a2 * a2),
+            one - c * (a1 * a1 + a2 * a2),
             s * a2 + c * a0 * a1,
             -s * a1 + c * a0 * a2,
         ],
         [
             -s * a2 + c * a0 * a1,
-            1.0 - c * (a0 * a0 + a2 * a2),
+            one - c * (a0 * a0 + a2 * a2),
             s * a0 + c * a1 * a2,
         ],
         [
             s * a1 + c * a0 * a2,
             -s * a0 + c * a1 * a2,
-            1.0 - c * (a0 * a0 + a1 * a1),
+            one - c * (a0 * a0 + a1 * a1),
         ],
     ]
 }
@@ -188,36 +250,56 @@ pub const LOG_SERIES_MAX_SQ: f64 = 0.0025;
 /// rotation angle θ = |Θ| ∈ [0, π]. For θ near π the result is ill-conditioned; callers guard it.
 #[inline(always)]
 pub fn log_relative(qa: &Mat3, qb: &Mat3) -> (Vec3, f64) {
-    // R_mn = d_m(a) · d_n(b)
-    let r01 = dot(qa[0], qb[1]);
-    let r10 = dot(qa[1], qb[0]);
-    let r02 = dot(qa[0], qb[2]);
-    let r20 = dot(qa[2], qb[0]);
-    let r12 = dot(qa[1], qb[2]);
-    let r21 = dot(qa[2], qb[1]);
-    let trace = dot(qa[0], qb[0]) + dot(qa[1], qb[1]) + dot(qa[2], qb[2]);
-    let w = [0.5 * (r21 - r12), 0.5 * (r02 - r20), 0.5 * (r10 - r01)];
-    let c = 0.5 * (trace - 1.0);
-    let s2 = dot(w, w);
+    let (w, c, s2) = log_parts(qa, qb);
     let (f, theta) = if c > 0.0 && s2 < LOG_SERIES_MAX_SQ {
         // arcsin(s)/s by its series; θ = arcsin(s) for c > 0.
-        let f = 1.0
-            + s2 * (1.0 / 6.0
-                + s2 * (3.0 / 40.0
-                    + s2 * (5.0 / 112.0 + s2 * (35.0 / 1152.0 + s2 * (63.0 / 2816.0)))));
+        let f = asin_over_sin_series(s2);
         (f, f * s2.sqrt())
     } else {
-        let s = s2.sqrt();
-        let theta = s.atan2(c);
-        if s > 0.0 {
-            (theta / s, theta)
-        } else {
-            // s = 0 and c < 0: a half turn; the axis is not recoverable from w. Callers treat
-            // θ > 0.9π as a guard failure before using Θ.
-            (0.0, std::f64::consts::PI)
-        }
+        log_factor_trig(s2, c)
     };
     ([f * w[0], f * w[1], f * w[2]], theta)
+}
+
+/// The parts of `log_relative`: w = axial part of R (|w| = sin θ), c = cos θ and s² = |w|².
+#[inline(always)]
+pub(crate) fn log_parts<S: Real>(qa: &[[S; 3]; 3], qb: &[[S; 3]; 3]) -> ([S; 3], S, S) {
+    // R_mn = d_m(a) · d_n(b)
+    let r01 = dot_r(qa[0], qb[1]);
+    let r10 = dot_r(qa[1], qb[0]);
+    let r02 = dot_r(qa[0], qb[2]);
+    let r20 = dot_r(qa[2], qb[0]);
+    let r12 = dot_r(qa[1], qb[2]);
+    let r21 = dot_r(qa[2], qb[1]);
+    let trace = dot_r(qa[0], qb[0]) + dot_r(qa[1], qb[1]) + dot_r(qa[2], qb[2]);
+    let half = S::splat(0.5);
+    let w = [half * (r21 - r12), half * (r02 - r20), half * (r10 - r01)];
+    let c = half * (trace - S::splat(1.0));
+    (w, c, dot_r(w, w))
+}
+
+/// arcsin(s)/s by its series in s² (used where c > 0 and s² < `LOG_SERIES_MAX_SQ`).
+#[inline(always)]
+pub(crate) fn asin_over_sin_series<S: Real>(s2: S) -> S {
+    let k = S::splat;
+    k(1.0)
+        + s2 * (k(1.0 / 6.0)
+            + s2 * (k(3.0 / 40.0)
+                + s2 * (k(5.0 / 112.0) + s2 * (k(35.0 / 1152.0) + s2 * k(63.0 / 2816.0)))))
+}
+
+/// The factor θ/s and the angle θ of `log_relative` outside its series branch (libm atan2).
+#[inline(always)]
+pub(crate) fn log_factor_trig(s2: f64, c: f64) -> (f64, f64) {
+    let s = s2.sqrt();
+    let theta = s.atan2(c);
+    if s > 0.0 {
+        (theta / s, theta)
+    } else {
+        // s = 0 and c < 0: a half turn; the axis is not recoverable from w. Callers treat
+        // θ > 0.9π as a guard failure before using Θ.
+        (0.0, std::f64::consts::PI)
+    }
 }
 
 /// Largest entry of |Q Qᵀ − I|: the orthonormality defect of a director matrix.

@@ -39,7 +39,7 @@ impl Material {
 /// Everything about one rod that does not change during a run, except the rest strains.
 /// Domains: `node` (n + 1), `element` (n), `interior` Voronoi point (n − 1, between elements k
 /// and k + 1, at node k + 1).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct RodModel {
     /// Number of elements n ≥ 2.

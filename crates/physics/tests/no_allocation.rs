@@ -500,3 +500,41 @@ fn contact_with_friction_rod_and_self_contact_does_not_allocate() {
     );
     assert!(g > 0.0, "no obstacle contact");
 }
+
+// A batch of arms (`RodBatch`, one chunk of `LANES` rods, so that it runs on this thread where
+// allocations are counted): steps with a per-step rest-curvature update, the per-lane guard and
+// re-orthonormalisation (one lane's frames start off orthonormal so that Björck runs), the
+// guard run on demand and the observation getters.
+#[test]
+fn batched_arms_step_guard_and_observe_without_allocating() {
+    use octoarm_physics::{batch::LANES, RodBatch, Vec3};
+    let (model, state) = StraightRod::paper_arm().with_elements(20).build().unwrap();
+    let mut sim = Simulation::new(model, state, settings()).unwrap();
+    sim.set_damping(Damping::mass_proportional(10.0)).unwrap();
+    let mut batch = RodBatch::new(&sim, LANES).unwrap();
+    let mut skewed = sim.clone();
+    for a in &mut skewed.state.director.m {
+        for x in a.iter_mut() {
+            *x *= 1.0 + 1e-9;
+        }
+    }
+    batch.set_lane(1, &skewed).unwrap();
+    assert!(max_defect(&skewed.state) > 1e-9);
+    let update = |lane: usize, k: &mut [Vec3]| {
+        for kap in k.iter_mut() {
+            kap[1] += 0.01 * (lane as f64 - kap[1]);
+        }
+    };
+    let mut out = [vec![0.0; 21], vec![0.0; 21], vec![0.0; 21]];
+    let n = allocations_during(|| {
+        batch.run_with(STEPS as u64, Some(&update));
+        assert_eq!(batch.check(), 0);
+        let [x, y, z] = &mut out;
+        batch.positions(3, [x, y, z]).unwrap();
+        batch.velocities(3, [x, y, z]).unwrap();
+    });
+    assert_eq!(n, 0, "{n} heap allocations in {STEPS} batched steps");
+    let lane = batch.simulation(1).unwrap();
+    assert_eq!(lane.state.step, STEPS as u64);
+    assert!(max_defect(&lane.state) < 1e-12, "Björck ran on lane 1");
+}

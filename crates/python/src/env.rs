@@ -1,8 +1,9 @@
 //! `ArmBatch`: the physics of the `octoarm/ArmReach-v0` environments, for many arms at once.
 //! Each arm is a planar arm (paper geometry, fewer elements) commanded by rest curvatures on a
-//! few segments; one action holds for one control period. Arms are stepped in parallel on a
-//! private rayon pool; each arm's arithmetic is sequential and independent of the others, so
-//! results are bit-identical whatever the thread count. Randomness (targets) lives in Python.
+//! few segments; one action holds for one control period. The arms are one `RodBatch` (SIMD
+//! lanes across arms, chunks of arms in parallel on a private rayon pool); every arm equals its
+//! own `Simulation` stepped alone, bit for bit, whatever the thread count. Randomness (targets)
+//! lives in Python.
 //!
 //! Failures are per arm: when the stability guard stops an arm during a control period, that
 //! arm is put back to its state at the start of the period (the last state the guard passed:
@@ -20,10 +21,12 @@ use crate::arrays::read_array;
 use crate::{lock, lock_detached, model_error, rod::Simulation as PySimulation, step_error};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
-use octoarm_physics::{Damping, Settings, Simulation, StepError, StraightRod};
+use octoarm_physics::batch::LANES;
+use octoarm_physics::{
+    BatchError, Damping, RodBatch, Settings, Simulation, StepError, StraightRod, Vec3,
+};
 use pyo3::exceptions::{PyBaseException, PyValueError};
 use pyo3::prelude::*;
-use rayon::prelude::*;
 use std::sync::Mutex;
 
 /// Rest length L0 of the arm [m] (the paper's arm): the position scale of the observation.
@@ -35,13 +38,11 @@ const VELOCITY_SCALE: f64 = 10.0 * ARM_LENGTH;
 /// Bound of the normalised velocities: |v| / VELOCITY_SCALE ≤ 5 (10 m/s).
 const VELOCITY_BOUND: f64 = 5.0;
 
-/// One arm of the batch: the simulation, its initial copy, target, last action and the lagged
-/// rest curvature per segment [1/m] (the actuator state), and the arm as it was at the start
-/// of the current control period (restored if the stability guard stops it).
+/// One arm of the batch besides its rod (a lane of the `RodBatch`): target, last action and the
+/// lagged rest curvature per segment [1/m] (the actuator state), and the arm as it was at the
+/// start of the current control period (restored if the stability guard stops it).
 #[derive(Clone)]
 struct Arm {
-    sim: Simulation,
-    initial: Simulation,
     target: [f64; 2],
     action: Vec<f64>,
     curvature: Vec<f64>,
@@ -54,6 +55,16 @@ struct Saved {
     sim: Simulation,
     action: Vec<f64>,
     curvature: Vec<f64>,
+}
+
+/// The arms of a batch: their rods as one `RodBatch` (lane i = arm i) and the rest per arm.
+struct Arms {
+    rods: Rods,
+    arms: Vec<Arm>,
+    // The initial arm (every reset copies it) and scratch for observations.
+    initial: Simulation,
+    nodes: [Vec<f64>; 6],
+    kappa: Vec<Vec3>,
 }
 
 /// Configuration shared by all arms of a batch (validated in `ArmBatch::new`).
@@ -92,93 +103,240 @@ fn rest_tip(sim: &Simulation, curvature: &[f64]) -> [f64; 2] {
     tip
 }
 
-impl Arm {
-    /// One control period (`run_period`); if the stability guard stops it, the arm is put back
-    /// to its state at the start of the period and the guard's error returned.
-    fn advance(&mut self, cfg: &Config, action: &[f64]) -> Result<(), StepError> {
-        self.saved.sim.clone_from(&self.sim);
-        self.saved.action.copy_from_slice(&self.action);
-        self.saved.curvature.copy_from_slice(&self.curvature);
-        let result = self.run_period(cfg, action);
-        if result.is_err() {
-            // The failed state stays in `saved` (overwritten by the next period).
-            std::mem::swap(&mut self.sim, &mut self.saved.sim);
-            self.action.copy_from_slice(&self.saved.action);
-            self.curvature.copy_from_slice(&self.saved.curvature);
-        }
-        result
+/// The rods of the arms: a `RodBatch`, or for a single arm its `Simulation` (a batch of one
+/// arm would compute three padding lanes for nothing: 1.6× the time of the lone rod's step).
+/// Both step the same bits.
+#[allow(clippy::large_enum_variant)]
+enum Rods {
+    Batch(RodBatch),
+    One {
+        sim: Simulation,
+        failure: Option<StepError>,
+    },
+}
+
+impl Rods {
+    fn new(sim: &Simulation, n: usize) -> Result<Self, BatchError> {
+        Ok(if n == 1 {
+            Rods::One {
+                sim: sim.clone(),
+                failure: None,
+            }
+        } else {
+            Rods::Batch(RodBatch::new(sim, n)?)
+        })
     }
 
-    /// Drive the in-plane rest curvature κ°₂ of every interior point of segment s towards
-    /// a_s · max_curvature (a clipped to [−1, 1]; finite, checked by `ArmBatch::step`) while
-    /// simulating one control period.
-    fn run_period(&mut self, cfg: &Config, action: &[f64]) -> Result<(), StepError> {
-        for (dst, &a) in self.action.iter_mut().zip(action) {
-            *dst = a.clamp(-1.0, 1.0);
+    fn simulation(&self, i: usize) -> Result<Simulation, BatchError> {
+        match self {
+            Rods::Batch(b) => b.simulation(i),
+            Rods::One { sim, .. } => Ok(sim.clone()),
         }
-        let n_interior = self.sim.system.rest_kappa.len();
+    }
+
+    fn set_lane(&mut self, i: usize, from: &Simulation) -> Result<(), BatchError> {
+        match self {
+            Rods::Batch(b) => b.set_lane(i, from),
+            Rods::One { sim, failure } => {
+                sim.clone_from(from);
+                *failure = None;
+                Ok(())
+            }
+        }
+    }
+
+    fn failure(&self, i: usize) -> Option<&StepError> {
+        match self {
+            Rods::Batch(b) => b.failure(i),
+            Rods::One { failure, .. } => failure.as_ref(),
+        }
+    }
+
+    /// `RodBatch::run_with` then `RodBatch::check`.
+    fn run_and_check<F: Fn(usize, &mut [Vec3]) + Sync>(&mut self, steps: u64, update: &F) {
+        match self {
+            Rods::Batch(b) => {
+                b.run_with(steps, Some(update));
+                b.check();
+            }
+            Rods::One { sim, failure } => {
+                let mut run = || {
+                    for _ in 0..steps {
+                        update(0, &mut sim.system.rest_kappa);
+                        sim.step()?;
+                    }
+                    sim.check()
+                };
+                *failure = run().err();
+            }
+        }
+    }
+
+    fn rest_kappa(&self, i: usize, out: &mut [Vec3]) -> Result<(), BatchError> {
+        match self {
+            Rods::Batch(b) => b.rest_kappa(i, out),
+            Rods::One { sim, .. } => {
+                out.copy_from_slice(&sim.system.rest_kappa);
+                Ok(())
+            }
+        }
+    }
+
+    fn nodes(&self, i: usize, pos: [&mut [f64]; 3], vel: [&mut [f64]; 3]) {
+        match self {
+            Rods::Batch(b) => {
+                b.positions(i, pos).expect("lane of an arm");
+                b.velocities(i, vel).expect("lane of an arm");
+            }
+            Rods::One { sim, .. } => {
+                let s = &sim.state;
+                for (o, v) in pos
+                    .into_iter()
+                    .zip([&s.position.x, &s.position.y, &s.position.z])
+                {
+                    o.copy_from_slice(v);
+                }
+                for (o, v) in vel
+                    .into_iter()
+                    .zip([&s.velocity.x, &s.velocity.y, &s.velocity.z])
+                {
+                    o.copy_from_slice(v);
+                }
+            }
+        }
+    }
+}
+
+/// The per-step actuator update of one arm inside a control period: the lagged rest curvature
+/// of each segment follows its goal a · max_curvature (`c += α (goal − c)`), and every interior
+/// point of the segment gets it as its in-plane rest curvature κ°₂. The lagged value of a
+/// segment is read back from its first point (they are equal after every update, and at
+/// reset and restore), so the rest curvatures are the whole actuator state inside a period.
+fn lag_rest_curvature(kappa: &mut [Vec3], action: &[f64], cfg: &Config, alpha: f64) {
+    let n_interior = kappa.len();
+    let (mut segment, mut c) = (usize::MAX, 0.0);
+    for (k, kap) in kappa.iter_mut().enumerate() {
+        let s = segment_of(k, cfg.n_segments, n_interior);
+        if s != segment {
+            segment = s;
+            let goal = action[s] * cfg.max_curvature;
+            c = kap[1];
+            c += alpha * (goal - c);
+        }
+        kap[1] = c;
+    }
+}
+
+impl Arms {
+    /// One control period of every arm under `actions` (n_envs × n_segments, finite; clipped
+    /// to [−1, 1]) on `pool`: the arms the stability guard stops are put back to their state
+    /// at the start of the period, and their errors returned.
+    fn advance(
+        &mut self,
+        cfg: &Config,
+        actions: &[f64],
+        pool: Option<&rayon::ThreadPool>,
+    ) -> Vec<Option<StepError>> {
+        let m = cfg.n_segments;
+        for (i, arm) in self.arms.iter_mut().enumerate() {
+            arm.saved.sim = self.rods.simulation(i).expect("lane of an arm");
+            arm.saved.action.copy_from_slice(&arm.action);
+            arm.saved.curvature.copy_from_slice(&arm.curvature);
+            for (dst, &a) in arm.action.iter_mut().zip(&actions[i * m..(i + 1) * m]) {
+                *dst = a.clamp(-1.0, 1.0);
+            }
+        }
         // Muscle-like activation: the rest curvature follows the command with a first-order lag
         // of time constant `activation_time`, updated every time step (a step change of rest
         // curvature would shock the thin arm into the non-variational zig-zag mode).
         let alpha = if cfg.activation_time > 0.0 {
-            1.0 - (-self.sim.settings().dt / cfg.activation_time).exp()
+            1.0 - (-self.initial.settings().dt / cfg.activation_time).exp()
         } else {
             1.0
         };
-        // Every interior point of a segment starts from the same rest curvature and follows the
-        // same goal, so one lagged value per segment is the whole actuator state.
-        for _ in 0..cfg.steps_per_action {
-            for (c, a) in self.curvature.iter_mut().zip(&self.action) {
-                let goal = a * cfg.max_curvature;
-                *c += alpha * (goal - *c);
-            }
-            // The rest curvatures in force live in the system (one rod: same indexing).
-            for (k, kappa) in self.sim.system.rest_kappa.iter_mut().enumerate() {
-                kappa[1] = self.curvature[segment_of(k, cfg.n_segments, n_interior)];
-            }
-            self.sim.step()?;
+        let arms = &self.arms;
+        let update = |lane: usize, kappa: &mut [Vec3]| {
+            lag_rest_curvature(kappa, &arms[lane].action, cfg, alpha);
+        };
+        let rods = &mut self.rods;
+        let mut run = || rods.run_and_check(cfg.steps_per_action, &update);
+        match pool {
+            Some(p) => p.install(run),
+            None => run(),
         }
-        self.sim.check()
+        let mut errors = Vec::with_capacity(self.arms.len());
+        for (i, arm) in self.arms.iter_mut().enumerate() {
+            let error = self.rods.failure(i).cloned();
+            if error.is_some() {
+                // The failed state is dropped; the arm is back at the start of the period.
+                self.rods
+                    .set_lane(i, &arm.saved.sim)
+                    .expect("an arm's own saved state fits its lane");
+                arm.action.copy_from_slice(&arm.saved.action);
+                arm.curvature.copy_from_slice(&arm.saved.curvature);
+            } else {
+                self.rods
+                    .rest_kappa(i, &mut self.kappa)
+                    .expect("lane of an arm");
+                let n_interior = self.kappa.len();
+                for (k, kap) in self.kappa.iter().enumerate() {
+                    arm.curvature[segment_of(k, m, n_interior)] = kap[1];
+                }
+            }
+            errors.push(error);
+        }
+        errors
     }
 
-    fn tip_distance(&self) -> f64 {
-        let tip = self.sim.tip();
-        ((tip[0] - self.target[0]).powi(2) + (tip[1] - self.target[1]).powi(2)).sqrt()
+    /// Node positions and velocities of arm `i` into the scratch (x, y, z, vx, vy, vz).
+    fn load_nodes(&mut self, i: usize) {
+        let [x, y, z, vx, vy, vz] = &mut self.nodes;
+        self.rods.nodes(i, [x, y, z], [vx, vy, vz]);
     }
 
-    /// Reward: −(tip distance [m]) − effort_weight · mean(a²).
-    fn reward(&self, cfg: &Config) -> f64 {
-        let effort = self.action.iter().map(|a| a * a).sum::<f64>() / cfg.n_segments as f64;
-        -self.tip_distance() - cfg.effort_weight * effort
+    /// Distance [m] of arm `i`'s tip from its target (after `load_nodes(i)`).
+    fn tip_distance(&self, i: usize) -> f64 {
+        let [x, y, ..] = &self.nodes;
+        let n = x.len() - 1;
+        let t = self.arms[i].target;
+        ((x[n] - t[0]).powi(2) + (y[n] - t[1]).powi(2)).sqrt()
     }
 
-    /// Observation (see the module docs): node x, y / L0; node vx, vy / (10 L0/s); target
-    /// x, y / L0; lagged rest curvature / max_curvature per segment; last action. Each
-    /// component is clipped to its bound (in f64, so the f32 value is inside the bound too).
-    fn observe(&self, cfg: &Config, out: &mut [f32]) {
-        // One rod: the system's nodes are the arm's, in order (structure of arrays).
-        let s = &self.sim.state;
+    /// Reward of arm `i` (after `load_nodes(i)`): −(tip distance [m]) − effort_weight · mean(a²).
+    fn reward(&self, i: usize, cfg: &Config) -> f64 {
+        let action = &self.arms[i].action;
+        let effort = action.iter().map(|a| a * a).sum::<f64>() / cfg.n_segments as f64;
+        -self.tip_distance(i) - cfg.effort_weight * effort
+    }
+
+    /// Observation of arm `i` (after `load_nodes(i)`; see the module docs): node x, y / L0;
+    /// node vx, vy / (10 L0/s); target x, y / L0; lagged rest curvature / max_curvature per
+    /// segment; last action. Each component is clipped to its bound (in f64, so the f32 value
+    /// is inside the bound too).
+    fn observe(&self, i: usize, cfg: &Config, out: &mut [f32]) {
+        let arm = &self.arms[i];
+        let [px, py, _, vx, vy, _] = &self.nodes;
         let pos = |x: f64| (x / ARM_LENGTH).clamp(-POSITION_BOUND, POSITION_BOUND) as f32;
         let vel = |v: f64| (v / VELOCITY_SCALE).clamp(-VELOCITY_BOUND, VELOCITY_BOUND) as f32;
         let mut o = 0;
-        for (x, y) in s.position.x.iter().zip(&s.position.y) {
+        for (x, y) in px.iter().zip(py) {
             out[o] = pos(*x);
             out[o + 1] = pos(*y);
             o += 2;
         }
-        for (vx, vy) in s.velocity.x.iter().zip(&s.velocity.y) {
+        for (vx, vy) in vx.iter().zip(vy) {
             out[o] = vel(*vx);
             out[o + 1] = vel(*vy);
             o += 2;
         }
-        out[o] = pos(self.target[0]);
-        out[o + 1] = pos(self.target[1]);
+        out[o] = pos(arm.target[0]);
+        out[o + 1] = pos(arm.target[1]);
         o += 2;
-        for c in &self.curvature {
+        for c in &arm.curvature {
             out[o] = (c / cfg.max_curvature).clamp(-1.0, 1.0) as f32;
             o += 1;
         }
-        for (dst, a) in out[o..].iter_mut().zip(&self.action) {
+        for (dst, a) in out[o..].iter_mut().zip(&arm.action) {
             *dst = *a as f32;
         }
     }
@@ -188,7 +346,12 @@ impl Arm {
 const RENDER_HALF_WIDTH: f64 = 1.1 * ARM_LENGTH;
 
 /// The picture of one arm (see `ArmBatch::render`).
-fn render_arm(arm: &Arm, width: usize, height: usize) -> octoarm_viewer::raster::Image {
+fn render_arm(
+    sim: &Simulation,
+    target: [f64; 2],
+    width: usize,
+    height: usize,
+) -> octoarm_viewer::raster::Image {
     use octoarm_viewer::raster::{draw_rod, Image, View};
     let mut img = Image::new(width, height, [250, 250, 250]);
     let half = RENDER_HALF_WIDTH;
@@ -212,11 +375,11 @@ fn render_arm(arm: &Arm, width: usize, height: usize) -> octoarm_viewer::raster:
     let [x1, y1] = view.to_px([0.0, -0.02]);
     img.fill_rect(x0, x1, y0, y1, [60, 60, 60]);
     // The target: a red disc of 6 mm radius with a white centre.
-    let [tx, ty] = view.to_px(arm.target);
+    let [tx, ty] = view.to_px(target);
     img.fill_disc(tx, ty, view.len_px(0.006).max(3.0), [220, 20, 30]);
     img.fill_disc(tx, ty, view.len_px(0.002).max(1.0), [255, 255, 255]);
     // The arm with its true radius (one rod: the system's nodes in order).
-    let s = &arm.sim.state;
+    let s = &sim.state;
     let nodes: Vec<[f64; 2]> = s
         .position
         .x
@@ -228,7 +391,7 @@ fn render_arm(arm: &Arm, width: usize, height: usize) -> octoarm_viewer::raster:
         &mut img,
         &view,
         &nodes,
-        &arm.sim.system.rod(0).model.radius,
+        &sim.system.rod(0).model.radius,
         [123, 63, 196],
     );
     img
@@ -245,7 +408,7 @@ fn render_arm(arm: &Arm, width: usize, height: usize) -> octoarm_viewer::raster:
 /// Thread-safe: the arms sit behind a mutex, so calls from other threads wait while one steps.
 #[pyclass(module = "octoarm", frozen)]
 pub struct ArmBatch {
-    arms: Mutex<Vec<Arm>>,
+    arms: Mutex<Arms>,
     n_envs: usize,
     n_nodes: usize,
     cfg: Config,
@@ -255,10 +418,12 @@ pub struct ArmBatch {
 }
 
 impl ArmBatch {
-    fn obs(&self, arms: &[Arm]) -> Array2<f32> {
-        let mut out = Array2::<f32>::zeros((arms.len(), self.obs_dim));
-        for (arm, mut row) in arms.iter().zip(out.rows_mut()) {
-            arm.observe(
+    fn obs(&self, arms: &mut Arms) -> Array2<f32> {
+        let mut out = Array2::<f32>::zeros((self.n_envs, self.obs_dim));
+        for (i, mut row) in out.rows_mut().into_iter().enumerate() {
+            arms.load_nodes(i);
+            arms.observe(
+                i,
                 &self.cfg,
                 row.as_slice_mut()
                     .expect("rows of a standard array are contiguous"),
@@ -324,11 +489,12 @@ impl ArmBatch {
         if !(effort_weight.is_finite() && effort_weight >= 0.0) {
             return Err(bad("effort_weight", effort_weight, "[0, inf)"));
         }
+        // Arms are stepped in chunks of `LANES`; a batch of one chunk runs on the calling
+        // thread, more chunks on a private pool (one worker per core by default).
         let pool = match num_threads {
             Some(t) if t < 1 => return Err(bad("num_threads", t, "[1, inf)")),
-            Some(1) => None,
+            _ if n_envs as usize <= LANES => None,
             Some(t) => Some(t as usize),
-            None if n_envs == 1 => None,
             None => Some(0), // rayon: one worker per core
         };
         let pool = pool
@@ -349,20 +515,27 @@ impl ArmBatch {
             .map_err(model_error)?;
         let n_segments = n_segments as usize;
         let arm = Arm {
-            initial: sim.clone(),
             saved: Saved {
                 sim: sim.clone(),
                 action: vec![0.0; n_segments],
                 curvature: vec![0.0; n_segments],
             },
-            sim,
             target: [0.1, 0.1],
             action: vec![0.0; n_segments],
             curvature: vec![0.0; n_segments],
         };
         let n_nodes = n_elements as usize + 1;
+        let rods =
+            Rods::new(&sim, n_envs as usize).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let arms = Arms {
+            rods,
+            arms: vec![arm; n_envs as usize],
+            nodes: std::array::from_fn(|_| vec![0.0; n_nodes]),
+            kappa: vec![[0.0; 3]; n_elements as usize - 1],
+            initial: sim,
+        };
         Ok(Self {
-            arms: Mutex::new(vec![arm; n_envs as usize]),
+            arms: Mutex::new(arms),
             n_envs: n_envs as usize,
             n_nodes,
             cfg: Config {
@@ -452,7 +625,7 @@ impl ArmBatch {
         let k = commands.len()?;
         let c = read_array(commands, "commands", &[k, m])?;
         let arms = lock(py, &self.arms);
-        let sim = &arms[0].initial;
+        let sim = &arms.initial;
         let mut out = Array2::<f64>::zeros((k, 2));
         let mut curvature = vec![0.0; m];
         for (row, cmd) in c.chunks(m).enumerate() {
@@ -505,15 +678,18 @@ impl ArmBatch {
             }
         }
         let obs = {
-            let mut arms = lock(py, &self.arms);
+            let mut guard = lock(py, &self.arms);
+            let arms: &mut Arms = &mut guard;
             for (target, &i) in t.chunks_exact(2).zip(&indices) {
-                let arm = &mut arms[i];
-                arm.sim.clone_from(&arm.initial);
+                arms.rods
+                    .set_lane(i, &arms.initial)
+                    .expect("the initial arm fits every lane");
+                let arm = &mut arms.arms[i];
                 arm.target = [target[0], target[1]];
                 arm.action.fill(0.0);
                 arm.curvature.fill(0.0);
             }
-            self.obs(&arms)
+            self.obs(arms)
         };
         Ok(obs.into_pyarray(py))
     }
@@ -541,23 +717,14 @@ impl ArmBatch {
         let cfg = self.cfg;
         let (obs, rewards, dist, errors) = py.detach(|| {
             let mut guard = lock_detached(&self.arms);
-            let arms: &mut Vec<Arm> = &mut guard;
-            let errors: Vec<Option<StepError>> = match self.pool.as_ref() {
-                None => arms
-                    .iter_mut()
-                    .zip(a.chunks(m))
-                    .map(|(arm, act)| arm.advance(&cfg, act).err())
-                    .collect(),
-                Some(pool) => pool.install(|| {
-                    arms.par_iter_mut()
-                        .zip(a.par_chunks(m))
-                        .with_max_len(1)
-                        .map(|(arm, act)| arm.advance(&cfg, act).err())
-                        .collect()
-                }),
-            };
-            let rewards: Vec<f64> = arms.iter().map(|arm| arm.reward(&cfg)).collect();
-            let dist: Vec<f64> = arms.iter().map(Arm::tip_distance).collect();
+            let arms: &mut Arms = &mut guard;
+            let errors = arms.advance(&cfg, &a, self.pool.as_ref());
+            let (mut rewards, mut dist) = (Vec::with_capacity(n), Vec::with_capacity(n));
+            for i in 0..n {
+                arms.load_nodes(i);
+                rewards.push(arms.reward(i, &cfg));
+                dist.push(arms.tip_distance(i));
+            }
             (self.obs(arms), rewards, dist, errors)
         });
         let failures = errors
@@ -598,7 +765,8 @@ impl ArmBatch {
         let (w, h) = (size("width", width)?, size("height", height)?);
         let image = {
             let arms = lock(py, &self.arms);
-            render_arm(&arms[i], w, h)
+            let sim = arms.rods.simulation(i).expect("lane of an arm");
+            render_arm(&sim, arms.arms[i].target, w, h)
         };
         let array = numpy::ndarray::Array3::from_shape_vec((h, w, 3), image.pixels)
             .expect("an image of height × width × 3 bytes");
@@ -612,7 +780,10 @@ impl ArmBatch {
             .ok()
             .filter(|&i| i < n)
             .ok_or_else(|| bad("index", index, &format!("[0, {}] (n_envs - 1)", n - 1)))?;
-        let sim = lock(py, &self.arms)[i].sim.clone();
+        let sim = lock(py, &self.arms)
+            .rods
+            .simulation(i)
+            .expect("lane of an arm");
         Ok(PySimulation::from_inner(sim))
     }
 }
