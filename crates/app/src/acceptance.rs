@@ -16,6 +16,8 @@ pub struct Check {
     pub pass: Option<bool>,
     /// The scenario's remark, if any.
     pub note: Option<String>,
+    /// The scenario marks the claim as known not to hold (`infeasible = true`).
+    pub infeasible: bool,
 }
 
 fn within(v: f64, a: &AcceptanceConfig) -> bool {
@@ -122,6 +124,7 @@ impl Tracker {
                     measured,
                     pass,
                     note: a.note.clone(),
+                    infeasible: a.infeasible,
                 }
             })
             .collect()

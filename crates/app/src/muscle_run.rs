@@ -957,6 +957,7 @@ pub fn evaluate(
                 measured,
                 pass,
                 note: a.note.clone(),
+                infeasible: a.infeasible,
             }
         })
         .collect()

@@ -176,14 +176,15 @@ impl PaperReport {
             .all(|(_, r)| matches!(r, PaperResult::Ran(run) if run.failure.is_none()))
     }
     /// The acceptance checks that failed, as "experiment: claim (measured)" (undecided checks,
-    /// e.g. claims about times after a shortened run's end, are not failures).
+    /// e.g. claims about times after a shortened run's end, and claims the scenario marks
+    /// `infeasible` are not counted).
     pub fn failed_checks(&self) -> Vec<String> {
         let mut out = Vec::new();
         for (name, r) in &self.results {
             if let PaperResult::Ran(run) = r {
                 let muscle = run.data.muscle.as_ref().map_or(&[][..], |m| &m.checks[..]);
                 for c in checks(run).iter().chain(muscle) {
-                    if c.pass == Some(false) {
+                    if c.pass == Some(false) && !c.infeasible {
                         out.push(format!("{name}: {} ({})", c.claim, c.measured));
                     }
                 }
@@ -220,6 +221,7 @@ fn verdict(checks: &[Check]) -> String {
 fn check_row(s: &mut String, label: &str, c: &Check) {
     let verdict = match c.pass {
         Some(true) => "pass",
+        Some(false) if c.infeasible => "**fail** (infeasible as stated)",
         Some(false) => "**fail**",
         None => "undecided",
     };

@@ -297,10 +297,13 @@ fn a_failed_acceptance_check_exits_3_with_every_output_written() {
         String::from_utf8_lossy(&o.stderr)
     );
 
-    // The arm starts 0.5 L0 or more from its first target: d(5 ms) ≤ 1e-9 fails.
+    // The arm starts 0.5 L0 or more from its first target: d(5 ms) ≤ 1e-9 fails. The same
+    // claim marked `infeasible` is reported as failed but does not count.
     let failing = base
         + "\n[[acceptance]]\nclaim = \"d(5 ms) ≤ 1e-9 (cannot hold)\"\nquantity = \"distance_before\"\n\
-           time = 0.005\nmax = 1e-9\n";
+           time = 0.005\nmax = 1e-9\n"
+        + "\n[[acceptance]]\nclaim = \"d(6 ms) ≤ 1e-9 (marked)\"\nquantity = \"distance_before\"\n\
+           time = 0.006\nmax = 1e-9\ninfeasible = true\n";
     std::fs::write(dir.join("two-targets.toml"), failing).unwrap();
     let o = run("failed");
     let stderr = String::from_utf8_lossy(&o.stderr);
@@ -316,6 +319,11 @@ fn a_failed_acceptance_check_exits_3_with_every_output_written() {
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
+    assert!(!stderr.contains("(marked)"), "{stderr}");
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("**fail**"), "{report}");
+    assert!(
+        report.contains("**fail** (infeasible as stated)"),
+        "{report}"
+    );
 }

@@ -1191,6 +1191,10 @@ pub struct AcceptanceConfig {
     /// A remark shown beside the verdict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// The claim is known not to hold as stated (its `note` says why): it is still checked and
+    /// reported, but its failure does not make `octoarm paper` exit with code 3.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub infeasible: bool,
     /// The muscle group of `muscle_group_integral` ("tm", "lm0".."lm3", "om_plus", "om_minus").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub group: Option<String>,
