@@ -25,10 +25,12 @@ fn main() {
     let mut d = MuscleDesign::new(st.clone());
     let (_, lbfgs) = d.solve(&task, &a0);
     println!(
-        "L-BFGS: {} iterations, {:.3} s, J {:.6}, tip {:.3e} m, θ_Q {:.3e} rad ({:?})",
+        "L-BFGS: {} iterations, {:.3} s, J {:.6}, Φ {:.3e}, R {:.6}, tip {:.3e} m, θ_Q {:.3e} rad ({:?})",
         lbfgs.iterations,
         lbfgs.seconds,
         lbfgs.costs.total,
+        lbfgs.costs.total - lbfgs.costs.activation,
+        lbfgs.costs.activation,
         lbfgs.costs.tip_error,
         lbfgs.costs.orientation_error,
         lbfgs.outcome
