@@ -1,6 +1,7 @@
 //! COOMM's relaxation (muscles-3d spec §5.5) on experiment A against the L-BFGS design:
 //! `cargo run --release -p octoarm-control --example coomm_relaxation -- [iterations ...]`
-//! (default 1000 10000) prints, per iteration count, the relaxation's J, Φ, tip error and θ_Q
+//! (default 1000 10000) prints, per iteration count and equilibrium mode (exact, one Picard
+//! pass), the relaxation's J, Φ, tip error and θ_Q
 //! from a = 0 with η = 1e-8, its wall time per iteration, and the L-BFGS
 //! design's (2000 iterations from a = 0) for comparison. Wall times: run on an idle machine.
 use octoarm_control::{CoommRelaxation, MuscleDesign, MuscleStatics, ReachTask};
@@ -35,17 +36,19 @@ fn main() {
         lbfgs.costs.orientation_error,
         lbfgs.outcome
     );
-    for &it in &counts {
+    for (&it, picard_pass) in counts.iter().flat_map(|c| [(c, false), (c, true)]) {
         let mut d = MuscleDesign::new(st.clone());
         let cfg = CoommRelaxation {
             max_iterations: it,
+            picard_pass,
             ..Default::default()
         };
         let (a, rep) = d.relax_coomm(&task, &a0, &cfg).unwrap();
         let amax = a.iter().fold(0.0f64, |m, v| m.max(*v));
         println!(
-            "relaxation {} iterations: {:.3} s ({:.3} ms/iteration, {} Newton), J {:.6}, Φ {:.6}, \
+            "relaxation ({}) {} iterations: {:.3} s ({:.3} ms/iteration, {} Newton), J {:.6}, Φ {:.6}, \
              R {:.6}, tip {:.3e} m, θ_Q {:.3e} rad, max a {amax:.4}, last change {:.3e}",
+            if picard_pass { "one Picard pass" } else { "exact equilibrium" },
             rep.iterations,
             rep.seconds,
             1e3 * rep.seconds / rep.iterations as f64,

@@ -424,6 +424,11 @@ pub struct CoommRelaxation {
     /// Stop when the mean squared change of a over one iteration is below this, ≥ 0.
     /// Default 1e-12 (COOMM's; never reached in its runs).
     pub change_tolerance: f64,
+    /// Equilibrium per iteration: false (default) the exact one (`MuscleStatics::solve`,
+    /// warm-started); true COOMM's single Picard pass (spec §4.2) from the previous iterate's
+    /// strains (from the rest strains at the start), so Φ and â are taken at a lagging,
+    /// not exact, equilibrium as in COOMM.
+    pub picard_pass: bool,
 }
 
 impl Default for CoommRelaxation {
@@ -432,6 +437,7 @@ impl Default for CoommRelaxation {
             eta: 1e-8,
             max_iterations: 100_000,
             change_tolerance: 1e-12,
+            picard_pass: false,
         }
     }
 }
@@ -500,7 +506,8 @@ pub struct CoommRelaxationReport {
     /// Costs of the returned activations (at their exact equilibrium).
     pub costs: DesignCosts,
     /// Task cost Φ = J − R at every iterate, the start's first and the returned one's last
-    /// (`iterations + 1` values).
+    /// (`iterations + 1` values; with `picard_pass` at the Picard strains, the last at the exact
+    /// equilibrium).
     pub task_cost: Vec<f64>,
     /// Mean squared change of a in the last iteration.
     pub last_change: f64,
@@ -745,11 +752,17 @@ impl MuscleDesign {
         a_hat: &mut [f64],
     ) -> Result<DesignCosts, MuscleStaticsError> {
         let costs = self.evaluate(task, a, None)?;
+        let w = self.statics.solution().to_vec();
+        self.target_at(task, &w, a_hat);
+        Ok(costs)
+    }
+
+    /// â of `coomm_target` at strains `w` (not necessarily an equilibrium).
+    fn target_at<T: DesignTask + ?Sized>(&mut self, task: &T, w: &[f64], a_hat: &mut [f64]) {
         let st = &self.statics;
         let n = st.n_elements();
-        let w = st.solution().to_vec();
         let model = st.model();
-        let pose = st.pose(&w);
+        let pose = st.pose(w);
         let (x, q) = (&pose.position, &pose.director);
         let mut gl = vec![[0.0; 3]; n + 1];
         let mut cl = vec![[0.0; 3]; n];
@@ -778,7 +791,7 @@ impl MuscleDesign {
                 }
             }
         }
-        self.unit_resultants(&w);
+        self.unit_resultants(w);
         let st = &self.statics;
         let model = st.model();
         let mut node = vec![0.0; n + 1];
@@ -786,8 +799,8 @@ impl MuscleDesign {
             let (nu, tu) = (&self.n_unit[g], &self.t_unit[g]);
             for k in 0..n - 1 {
                 let (e0, e1) = (
-                    norm(MuscleStatics::nu(&w, k)),
-                    norm(MuscleStatics::nu(&w, k + 1)),
+                    norm(MuscleStatics::nu(w, k)),
+                    norm(MuscleStatics::nu(w, k + 1)),
                 );
                 let eps = 0.5 * (model.rest_length[k] * e0 + model.rest_length[k + 1] * e1)
                     / model.rest_voronoi_length[k];
@@ -802,17 +815,17 @@ impl MuscleDesign {
                 node[n] = node[n - 1];
             }
             for j in 0..n {
-                let e = norm(MuscleStatics::nu(&w, j));
+                let e = norm(MuscleStatics::nu(w, j));
                 let s = model.shear_stiffness[j];
                 let axial: f64 = (0..3).map(|c| nf[j][c] * e * nu[c][j] / s[c]).sum();
                 a_hat[g * n + j] = -axial - 0.5 * (node[j] + node[j + 1]);
             }
         }
-        Ok(costs)
     }
 
     /// COOMM's relaxation (spec §5.5, for cross-checks only): from `a0`, per iteration the
-    /// target activation â at the current a (`coomm_target`, exact equilibrium) and
+    /// target activation â at the current a (`coomm_target` at the exact equilibrium, or at
+    /// one Picard pass with `cfg.picard_pass`) and
     /// a ← clip_[0,1](a − η (a − â)); stop after `cfg.max_iterations` or when the mean squared
     /// change is below `cfg.change_tolerance`. Returns the last activations and the report (Φ at
     /// every iterate). An invalid `cfg` or an equilibrium failure is an error.
@@ -831,11 +844,33 @@ impl MuscleDesign {
         let mut task_cost = Vec::with_capacity(cfg.max_iterations.min(1 << 20) + 1);
         let (mut it, mut converged, mut last_change) = (0, false, f64::NAN);
         let fail = |iteration, source| CoommRelaxationError::Equilibrium { iteration, source };
+        let mut w = self.statics.rest();
+        let max_picard = self.statics.config.max_picard;
         while it < cfg.max_iterations {
-            let c = self
-                .coomm_target(task, &a, &mut a_hat)
-                .map_err(|e| fail(it, e))?;
-            task_cost.push(c.total - c.activation);
+            let phi = if cfg.picard_pass {
+                self.statics
+                    .check_activations(&a)
+                    .map_err(|e| fail(it, e))?;
+                self.statics.config.max_picard = 1;
+                self.statics.picard(&mut w, &a, 0.0);
+                self.statics.config.max_picard = max_picard;
+                if !w.iter().all(|v| v.is_finite()) {
+                    let e = MuscleStaticsError::EquilibriumFailed {
+                        iteration: it,
+                        residual: f64::NAN,
+                    };
+                    return Err(fail(it, e));
+                }
+                let phi = self.task_gradient(task, &w, None).total;
+                self.target_at(task, &w, &mut a_hat);
+                phi
+            } else {
+                let c = self
+                    .coomm_target(task, &a, &mut a_hat)
+                    .map_err(|e| fail(it, e))?;
+                c.total - c.activation
+            };
+            task_cost.push(phi);
             it += 1;
             let mut change = 0.0;
             for (v, h) in a.iter_mut().zip(&a_hat) {

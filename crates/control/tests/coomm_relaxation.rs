@@ -47,20 +47,23 @@ fn cosine(p: &[f64], q: &[f64]) -> f64 {
 // §5.5 on experiment A's target: 300 relaxation iterations from a = 0 decrease Φ at every
 // iteration (rule asserted: Φ_{i+1} ≤ Φ_i for all i, no tolerance — measured: no rise), by at
 // least 10× (measured 33 711 → 2 024 with COOMM's η = 1e-8, → 384 with η = 1e-7), and keep
-// every activation in [0, 1] (η = 1e-7 drives some to the clip at 1).
+// every activation in [0, 1] (η = 1e-7 drives some to the clip at 1); the same with COOMM's
+// single Picard pass per iteration in place of the exact equilibrium.
 #[test]
 fn relaxation_descends_task_cost_within_bounds() {
     let (mut d, task) = design();
     let nv = N_GROUPS * N;
-    for eta in [1e-8, 1e-7] {
+    let mut final_j = Vec::new();
+    for (eta, picard_pass) in [(1e-8, false), (1e-7, false), (1e-8, true)] {
         let cfg = CoommRelaxation {
             eta,
             max_iterations: 300,
+            picard_pass,
             ..Default::default()
         };
         let (a, rep) = d.relax_coomm(&task, &vec![0.0; nv], &cfg).unwrap();
         eprintln!(
-            "η = {eta}: Φ {} → {}, J {}, {} iterations, {:.3} s",
+            "η = {eta}, Picard {picard_pass}: Φ {} → {}, J {}, {} iterations, {:.3} s",
             rep.task_cost[0],
             rep.task_cost.last().unwrap(),
             rep.costs.total,
@@ -81,7 +84,14 @@ fn relaxation_descends_task_cost_within_bounds() {
         // The reported costs are those of the returned activations.
         let c = d.evaluate(&task, &a, None).unwrap();
         assert_eq!(c.total, rep.costs.total);
+        final_j.push(rep.costs.total);
     }
+    // COOMM's single Picard pass per iteration (a lagging equilibrium) ends where the exact
+    // equilibrium does, to 2e-3 of J (measured 5e-4: 2025.0 against 2024.0).
+    assert!(
+        (final_j[2] - final_j[0]).abs() <= 2e-3 * final_j[0],
+        "{final_j:?}"
+    );
 }
 
 // §5.5: −l̂ â (COOMM's frozen-Jacobian estimate of ∂Φ/∂a) against the exact adjoint ∂Φ/∂a =
@@ -155,6 +165,7 @@ fn relaxation_stops_short_of_lbfgs_and_refuses_bad_settings() {
             eta,
             max_iterations: iters,
             change_tolerance: tol,
+            ..Default::default()
         };
         match d.relax_coomm(&task, &a0, &cfg) {
             Err(e @ CoommRelaxationError::Invalid { field: f, .. }) => {
