@@ -928,22 +928,17 @@ fn add_muscles(
             .map_err(|e| located("muscles.damping", e))?;
     }
     if m.net_weight {
-        let rho = cfg.rods.list[r].density;
-        let g = -9.81 * (1.0 - WATER_DENSITY / rho);
+        let load = Load::net_weight(&model, m.water_density, m.gravity)
+            .map_err(|e| located("muscles.net_weight", e))?;
         system
-            .add_load(
-                r,
-                Load::Gravity {
-                    acceleration: [0.0, 0.0, g],
-                },
-                Schedule::Constant,
-            )
+            .add_load(r, load, Schedule::Constant)
             .map_err(|e| located("muscles.net_weight", e))?;
     }
     Ok(())
 }
 
-/// Density of the water of the muscular arm, ρ_w [kg/m³] (muscles-3d spec §3.1).
+/// Density of the water of the muscular arm, ρ_w [kg/m³] (muscles-3d spec §3.1): the drag's
+/// and the default of `[muscles] water_density`.
 pub const WATER_DENSITY: f64 = 1022.0;
 
 /// The task schedule of a controlled scenario.

@@ -336,6 +336,23 @@ fn muscles_section_builds_the_arm_in_water() {
         })
         .expect("the net weight");
     assert!((g[2] + 9.81 * (1.0 - 1022.0 / 1050.0)).abs() < 1e-12 && g[0] == 0.0 && g[1] == 0.0);
+    // water_density and gravity set the net weight: g (1 − ρ_w/ρ).
+    let text2 = text.replace(
+        "net_weight = true",
+        "net_weight = true\nwater_density = 1000.0\ngravity = [1.0, 0.0, -9.0]",
+    );
+    let scn2 = Scenario::from_str(std::path::Path::new("reach.toml"), &text2).unwrap();
+    let (system2, _) = octoarm::build::build_system(&scn2).unwrap();
+    let g2 = system2
+        .loads()
+        .iter()
+        .find_map(|l| match l.load {
+            Load::Gravity { acceleration } => Some(acceleration),
+            _ => None,
+        })
+        .expect("the net weight");
+    let f = 1.0 - 1000.0 / 1050.0;
+    assert!((g2[0] - f).abs() < 1e-15 && g2[1] == 0.0 && (g2[2] + 9.0 * f).abs() < 1e-15);
     // Bad input is named.
     let bad = |from: &str, to: &str, key: &str| {
         let t = paper::MUSCLE_SCENARIOS[0].1.replace(from, to);
@@ -363,5 +380,15 @@ fn muscles_section_builds_the_arm_in_water() {
         "max_iterations = 2000",
         "max_iterations = 0",
         "max_iterations",
+    );
+    bad(
+        "damping = \"coomm\"",
+        "damping = \"coomm\"\nwater_density = -1.0",
+        "muscles.water_density",
+    );
+    bad(
+        "damping = \"coomm\"",
+        "damping = \"coomm\"\ngravity = [0.0, nan, -9.81]",
+        "muscles.gravity",
     );
 }

@@ -40,8 +40,9 @@ pub use controller::{
 };
 pub use error::{ShapingError, SolveError, StaticsError, TaskError};
 pub use muscle_design::{
-    restart_activations, DesignConfig, DesignConfigError, DesignCosts, DesignOutcome, DesignReport,
-    DesignTask, GraspTask, MuscleDesign, ReachTask,
+    restart_activations, CoommRelaxation, CoommRelaxationError, CoommRelaxationReport,
+    DesignConfig, DesignConfigError, DesignCosts, DesignOutcome, DesignReport, DesignTask,
+    GraspTask, MuscleDesign, ReachTask,
 };
 pub use muscle_shaping::MuscleShapingController;
 pub use muscle_statics::{

@@ -6,7 +6,8 @@
 //! map (5.3–5.4), one transposed solve with the factored equilibrium Jacobian, and the
 //! unit-activation group resultants (5.5). The optimiser is projected L-BFGS on b = √l̂ a (5.6),
 //! with group masks (groups held at zero). Grasp costs: `GraspTask` (attraction, obstacle,
-//! sucker side) behind the `DesignTask` trait; COOMM's relaxation is not built yet.
+//! sucker side) behind the `DesignTask` trait. COOMM's relaxation with its approximate gradient
+//! (5.5), for cross-checks only: `MuscleDesign::relax_coomm`.
 
 use crate::muscle_statics::{MuscleStatics, MuscleStaticsError};
 use octoarm_physics::math::{cross, dot, log_relative, mat_vec, norm, Mat3};
@@ -409,6 +410,113 @@ pub struct DesignReport {
     pub winner: usize,
 }
 
+/// COOMM's design iteration (spec §5.5), for cross-checks only: the relaxation
+/// a ← clip_[0,1](a − η (a − â)) towards the "target activation" â, COOMM's frozen-Jacobian
+/// estimate of −∂Φ/∂a / l̂ (`MuscleDesign::coomm_target`), from a given start (COOMM: a = 0).
+/// An early-stopped descent on Φ, not a minimiser of (5.1); `MuscleDesign::solve` is the design
+/// solver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoommRelaxation {
+    /// Relaxation factor η, in (0, 1]. Default 1e-8 (COOMM's).
+    pub eta: f64,
+    /// Iterations at most, ≥ 1. Default 100 000 (COOMM's per target).
+    pub max_iterations: usize,
+    /// Stop when the mean squared change of a over one iteration is below this, ≥ 0.
+    /// Default 1e-12 (COOMM's; never reached in its runs).
+    pub change_tolerance: f64,
+    /// Equilibrium per iteration: false (default) the exact one (`MuscleStatics::solve`,
+    /// warm-started); true COOMM's single Picard pass (spec §4.2) from the previous iterate's
+    /// strains (from the rest strains at the start), so Φ and â are taken at a lagging,
+    /// not exact, equilibrium as in COOMM.
+    pub picard_pass: bool,
+}
+
+impl Default for CoommRelaxation {
+    fn default() -> Self {
+        Self {
+            eta: 1e-8,
+            max_iterations: 100_000,
+            change_tolerance: 1e-12,
+            picard_pass: false,
+        }
+    }
+}
+
+/// Why `MuscleDesign::relax_coomm` could not run or stopped early.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CoommRelaxationError {
+    /// A setting outside its range.
+    #[error("CoommRelaxation.{field} = {value} is outside the allowed range {range}")]
+    Invalid {
+        /// Name of the setting.
+        field: &'static str,
+        /// Value given.
+        value: String,
+        /// Allowed range.
+        range: &'static str,
+    },
+    /// The equilibrium failed at an iterate (or the start activations were refused).
+    #[error("relaxation iteration {iteration}: {source}")]
+    Equilibrium {
+        /// Relaxation iteration at which it failed.
+        iteration: usize,
+        /// The statics' error.
+        source: MuscleStaticsError,
+    },
+}
+
+impl CoommRelaxation {
+    /// Check every setting; the error names the field, the value and the allowed range.
+    pub fn validate(&self) -> Result<(), CoommRelaxationError> {
+        let bad = |field, value: String, range| {
+            Err(CoommRelaxationError::Invalid {
+                field,
+                value,
+                range,
+            })
+        };
+        if !(self.eta > 0.0 && self.eta <= 1.0) {
+            return bad("eta", self.eta.to_string(), "(0, 1]");
+        }
+        if self.max_iterations < 1 {
+            return bad(
+                "max_iterations",
+                self.max_iterations.to_string(),
+                "[1, inf)",
+            );
+        }
+        if !(self.change_tolerance >= 0.0 && self.change_tolerance.is_finite()) {
+            return bad(
+                "change_tolerance",
+                self.change_tolerance.to_string(),
+                "[0, inf), finite",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The result of `MuscleDesign::relax_coomm`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoommRelaxationReport {
+    /// Relaxation iterations made.
+    pub iterations: usize,
+    /// True if it stopped on `change_tolerance` (else on `max_iterations`).
+    pub converged: bool,
+    /// Costs of the returned activations (at their exact equilibrium).
+    pub costs: DesignCosts,
+    /// Task cost Φ = J − R at every iterate, the start's first and the returned one's last
+    /// (`iterations + 1` values; with `picard_pass` at the Picard strains, the last at the exact
+    /// equilibrium).
+    pub task_cost: Vec<f64>,
+    /// Mean squared change of a in the last iteration.
+    pub last_change: f64,
+    /// Equilibrium Newton iterations summed over the iterates.
+    pub newton_iterations: usize,
+    /// Wall time [s].
+    pub seconds: f64,
+}
+
 /// The design problem of one muscular arm.
 #[derive(Debug, Clone)]
 pub struct MuscleDesign {
@@ -418,7 +526,7 @@ pub struct MuscleDesign {
     grad_w: Vec<f64>,
     n_unit: Vec<[Vec<f64>; 3]>,
     c_unit: Vec<[Vec<f64>; 3]>,
-    tau_tmp: [Vec<f64>; 3],
+    t_unit: Vec<[Vec<f64>; 3]>,
     newton_total: usize,
     chord_total: usize,
 }
@@ -435,7 +543,7 @@ impl MuscleDesign {
             grad_w: vec![0.0; m],
             n_unit: (0..N_GROUPS).map(|_| z(n)).collect(),
             c_unit: (0..N_GROUPS).map(|_| z(n)).collect(),
-            tau_tmp: z(n - 1),
+            t_unit: (0..N_GROUPS).map(|_| z(n - 1)).collect(),
             newton_total: 0,
             chord_total: 0,
         }
@@ -616,7 +724,7 @@ impl MuscleDesign {
                 std::array::from_fn(|h| if h == g { &ones[..] } else { &zeros[..] });
             let [n0, n1, n2] = &mut self.n_unit[g];
             let [c0, c1, c2] = &mut self.c_unit[g];
-            let [t0, t1, t2] = &mut self.tau_tmp;
+            let [t0, t1, t2] = &mut self.t_unit[g];
             let mut out = Resultants {
                 force: [n0, n1, n2],
                 couple: [t0, t1, t2],
@@ -625,6 +733,169 @@ impl MuscleDesign {
             st.muscles()
                 .resultants(act, &strains, &mut scratch, &mut out);
         }
+    }
+
+    /// COOMM's "target activation" â (spec §5.5) at activations `a` (group-major `[7][n]`,
+    /// into `a_hat`), and J(a). The equilibrium is the exact one (warm-started from the last);
+    /// COOMM takes one Picard pass per iteration instead. Costates: the sweep (5.3) of the lab
+    /// force n_j and couple m_k (the discrete form of COOMM's continuum quadrature), in the
+    /// material frame with J_r ≈ I (n_j ← Q_j n_j, m_k ← Q_{k+1} m_k). With the frozen Jacobian
+    /// K ≈ diag(S/e, B/ε) (ε where the equilibrium has ε³):
+    /// â_{g,j} = −n_j · e_j S_j⁻¹ n^{g,1}_j − ½ (c_j + c_{j+1}),
+    /// c_{k+1} = m_k · ε_k B_k⁻¹ τ^{g,1}_k on nodes 1..n−1, c_0 and c_n extrapolated linearly;
+    /// n^{g,1}, τ^{g,1} the group's element force and Voronoi couple at unit activation. −l̂ â
+    /// approximates ∂Φ/∂a (the exact one: `evaluate` minus l̂ a).
+    pub fn coomm_target<T: DesignTask + ?Sized>(
+        &mut self,
+        task: &T,
+        a: &[f64],
+        a_hat: &mut [f64],
+    ) -> Result<DesignCosts, MuscleStaticsError> {
+        let costs = self.evaluate(task, a, None)?;
+        let w = self.statics.solution().to_vec();
+        self.target_at(task, &w, a_hat);
+        Ok(costs)
+    }
+
+    /// â of `coomm_target` at strains `w` (not necessarily an equilibrium).
+    fn target_at<T: DesignTask + ?Sized>(&mut self, task: &T, w: &[f64], a_hat: &mut [f64]) {
+        let st = &self.statics;
+        let n = st.n_elements();
+        let model = st.model();
+        let pose = st.pose(w);
+        let (x, q) = (&pose.position, &pose.director);
+        let mut gl = vec![[0.0; 3]; n + 1];
+        let mut cl = vec![[0.0; 3]; n];
+        task.cost(
+            model,
+            &pose,
+            &mut DesignCosts::default(),
+            Some((&mut gl, &mut cl)),
+        );
+        // Material-frame costates: force on elements, couple on Voronoi points.
+        let mut nf = vec![[0.0; 3]; n];
+        let mut mc = vec![[0.0; 3]; n - 1];
+        let mut force = [-gl[n][0], -gl[n][1], -gl[n][2]];
+        let mut couple = [0.0; 3];
+        for j in (0..n).rev() {
+            nf[j] = mat_vec(&q[j], force);
+            let dx: Vec3 = std::array::from_fn(|c| x[j + 1][c] - x[j][c]);
+            let t = cross(dx, force);
+            for c in 0..3 {
+                couple[c] += t[c] - cl[j][c];
+            }
+            if j >= 1 {
+                mc[j - 1] = mat_vec(&q[j], couple);
+                for c in 0..3 {
+                    force[c] -= gl[j][c];
+                }
+            }
+        }
+        self.unit_resultants(w);
+        let st = &self.statics;
+        let model = st.model();
+        let mut node = vec![0.0; n + 1];
+        for g in 0..N_GROUPS {
+            let (nu, tu) = (&self.n_unit[g], &self.t_unit[g]);
+            for k in 0..n - 1 {
+                let (e0, e1) = (
+                    norm(MuscleStatics::nu(w, k)),
+                    norm(MuscleStatics::nu(w, k + 1)),
+                );
+                let eps = 0.5 * (model.rest_length[k] * e0 + model.rest_length[k + 1] * e1)
+                    / model.rest_voronoi_length[k];
+                let b = model.bend_stiffness[k];
+                node[k + 1] = (0..3).map(|c| mc[k][c] * eps * tu[c][k] / b[c]).sum();
+            }
+            if n >= 3 {
+                node[0] = 2.0 * node[1] - node[2];
+                node[n] = 2.0 * node[n - 1] - node[n - 2];
+            } else {
+                node[0] = node[1];
+                node[n] = node[n - 1];
+            }
+            for j in 0..n {
+                let e = norm(MuscleStatics::nu(w, j));
+                let s = model.shear_stiffness[j];
+                let axial: f64 = (0..3).map(|c| nf[j][c] * e * nu[c][j] / s[c]).sum();
+                a_hat[g * n + j] = -axial - 0.5 * (node[j] + node[j + 1]);
+            }
+        }
+    }
+
+    /// COOMM's relaxation (spec §5.5, for cross-checks only): from `a0`, per iteration the
+    /// target activation â at the current a (`coomm_target` at the exact equilibrium, or at
+    /// one Picard pass with `cfg.picard_pass`) and
+    /// a ← clip_[0,1](a − η (a − â)); stop after `cfg.max_iterations` or when the mean squared
+    /// change is below `cfg.change_tolerance`. Returns the last activations and the report (Φ at
+    /// every iterate). An invalid `cfg` or an equilibrium failure is an error.
+    pub fn relax_coomm<T: DesignTask + ?Sized>(
+        &mut self,
+        task: &T,
+        a0: &[f64],
+        cfg: &CoommRelaxation,
+    ) -> Result<(Vec<f64>, CoommRelaxationReport), CoommRelaxationError> {
+        cfg.validate()?;
+        let start = Instant::now();
+        self.newton_total = 0;
+        self.chord_total = 0;
+        let mut a: Vec<f64> = a0.iter().map(|v| v.clamp(0.0, 1.0)).collect();
+        let mut a_hat = vec![0.0; a.len()];
+        let mut task_cost = Vec::with_capacity(cfg.max_iterations.min(1 << 20) + 1);
+        let (mut it, mut converged, mut last_change) = (0, false, f64::NAN);
+        let fail = |iteration, source| CoommRelaxationError::Equilibrium { iteration, source };
+        let mut w = self.statics.rest();
+        let max_picard = self.statics.config.max_picard;
+        while it < cfg.max_iterations {
+            let phi = if cfg.picard_pass {
+                self.statics
+                    .check_activations(&a)
+                    .map_err(|e| fail(it, e))?;
+                self.statics.config.max_picard = 1;
+                self.statics.picard(&mut w, &a, 0.0);
+                self.statics.config.max_picard = max_picard;
+                if !w.iter().all(|v| v.is_finite()) {
+                    let e = MuscleStaticsError::EquilibriumFailed {
+                        iteration: it,
+                        residual: f64::NAN,
+                    };
+                    return Err(fail(it, e));
+                }
+                let phi = self.task_gradient(task, &w, None).total;
+                self.target_at(task, &w, &mut a_hat);
+                phi
+            } else {
+                let c = self
+                    .coomm_target(task, &a, &mut a_hat)
+                    .map_err(|e| fail(it, e))?;
+                c.total - c.activation
+            };
+            task_cost.push(phi);
+            it += 1;
+            let mut change = 0.0;
+            for (v, h) in a.iter_mut().zip(&a_hat) {
+                let next = (*v - cfg.eta * (*v - h)).clamp(0.0, 1.0);
+                change += (next - *v) * (next - *v);
+                *v = next;
+            }
+            last_change = change / a.len() as f64;
+            if last_change < cfg.change_tolerance {
+                converged = true;
+                break;
+            }
+        }
+        let costs = self.evaluate(task, &a, None).map_err(|e| fail(it, e))?;
+        task_cost.push(costs.total - costs.activation);
+        let report = CoommRelaxationReport {
+            iterations: it,
+            converged,
+            costs,
+            task_cost,
+            last_change,
+            newton_iterations: self.newton_total,
+            seconds: start.elapsed().as_secs_f64(),
+        };
+        Ok((a, report))
     }
 
     /// Design activations for `task` from `a0` (group-major `[7][n]`, clipped to the bounds)

@@ -1,4 +1,4 @@
-//! External loads (spec §9): gravity, point and distributed forces, point, distributed and
+//! External loads (spec §9): gravity (and the net weight in water), point and distributed forces, point, distributed and
 //! follower couples, each on one rod and scaled by a time `Schedule`. Forces are lab frame on
 //! nodes; couples are accumulated in the material frame of each element. Contact, joints and
 //! actuation are added elsewhere (`contact.rs`, `joints.rs`, `actuation.rs`).
@@ -126,6 +126,25 @@ impl Load {
             normal_coefficient: 0.41 / (rho * r_mean * l_mean),
             tangential_coefficient: 0.033 / (rho * std::f64::consts::PI * r_mean * l_mean),
         }
+    }
+
+    /// The net weight in water (muscles-3d spec §3.3; off unless added): per element
+    /// (ρ − ρ_w) g Â_j l̂_j, half to each of its nodes, with ρ the rod's density. Built as
+    /// `Gravity` with the reduced acceleration g (1 − ρ_w/ρ): the node masses are ½ ρ Â_j l̂_j
+    /// per adjacent element, so this is the same load (to round-off), and the gravity
+    /// potential of the energy bookkeeping stays its exact potential. Errors: `fluid_density`
+    /// not in [0, inf) or `gravity` not finite, named.
+    pub fn net_weight(
+        model: &RodModel,
+        fluid_density: f64,
+        gravity: Vec3,
+    ) -> Result<Self, ModelError> {
+        crate::error::non_negative("net_weight.fluid_density", fluid_density)?;
+        finite_vec("net_weight.gravity", gravity)?;
+        let f = 1.0 - fluid_density / model.material.density;
+        Ok(Load::Gravity {
+            acceleration: [f * gravity[0], f * gravity[1], f * gravity[2]],
+        })
     }
 
     /// The scenario name of the kind.

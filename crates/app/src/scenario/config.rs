@@ -110,10 +110,37 @@ pub struct MusclesConfig {
     /// "coomm" (default: COOMM's rates, spec §3.2) or "scenario" (`[damping]`).
     #[serde(default = "default_muscle_damping")]
     pub damping: MuscleDampingKind,
-    /// Net weight in water, (ρ − ρ_w) g Â l̂ per element along −e_z with ρ_w = 1022 kg/m³ and
-    /// g = 9.81 m/s² (spec §3.3); default false (COOMM has none).
+    /// Net weight in water, (ρ − ρ_w) g Â l̂ per element, half to each node (spec §3.3;
+    /// `Load::net_weight`); default false (COOMM has none).
     #[serde(default)]
     pub net_weight: bool,
+    /// Water density ρ_w of the net weight [kg/m³], in [0, inf); default 1022 (the water of
+    /// the drag, spec §3.1).
+    #[serde(
+        default = "default_water_density",
+        skip_serializing_if = "is_default_water_density"
+    )]
+    pub water_density: f64,
+    /// Gravitational acceleration g of the net weight [m/s²], lab frame, finite; default
+    /// (0, 0, −9.81).
+    #[serde(
+        default = "default_net_weight_gravity",
+        skip_serializing_if = "is_default_net_weight_gravity"
+    )]
+    pub gravity: [f64; 3],
+}
+
+fn default_water_density() -> f64 {
+    crate::build::WATER_DENSITY
+}
+fn is_default_water_density(v: &f64) -> bool {
+    *v == crate::build::WATER_DENSITY
+}
+fn default_net_weight_gravity() -> [f64; 3] {
+    [0.0, 0.0, -9.81]
+}
+fn is_default_net_weight_gravity(v: &[f64; 3]) -> bool {
+    *v == default_net_weight_gravity()
 }
 
 /// What `[muscle_control]` designs for.

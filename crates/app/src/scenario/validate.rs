@@ -945,6 +945,20 @@ impl ScenarioConfig {
                 "the muscular arm is straight at rest (spec §1.1): remove its rest strains",
             ));
         }
+        if !(m.water_density.is_finite() && m.water_density >= 0.0) {
+            return Err(bad(
+                "muscles.water_density",
+                m.water_density,
+                "[0, inf), finite",
+            ));
+        }
+        if !m.gravity.iter().all(|v| v.is_finite()) {
+            return Err(bad_vec(
+                "muscles.gravity",
+                m.gravity,
+                "every component finite",
+            ));
+        }
         let Some(c) = &self.muscle_control else {
             return Ok(());
         };
