@@ -705,6 +705,7 @@ mod tests {
                 min: None,
                 max: Some(0.3),
                 note: None,
+                infeasible: false,
             };
         use AcceptanceQuantity as Q;
         let claims = vec![
