@@ -839,11 +839,13 @@ impl MuscleDesign {
         let start = Instant::now();
         self.newton_total = 0;
         self.chord_total = 0;
-        let mut a: Vec<f64> = a0.iter().map(|v| v.clamp(0.0, 1.0)).collect();
+        let fail = |iteration, source| CoommRelaxationError::Equilibrium { iteration, source };
+        // Start activations outside [0, 1] are refused, not clipped.
+        self.statics.check_activations(a0).map_err(|e| fail(0, e))?;
+        let mut a: Vec<f64> = a0.to_vec();
         let mut a_hat = vec![0.0; a.len()];
         let mut task_cost = Vec::with_capacity(cfg.max_iterations.min(1 << 20) + 1);
         let (mut it, mut converged, mut last_change) = (0, false, f64::NAN);
-        let fail = |iteration, source| CoommRelaxationError::Equilibrium { iteration, source };
         let mut w = self.statics.rest();
         let max_picard = self.statics.config.max_picard;
         while it < cfg.max_iterations {

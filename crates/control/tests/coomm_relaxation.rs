@@ -178,6 +178,15 @@ fn relaxation_stops_short_of_lbfgs_and_refuses_bad_settings() {
             other => panic!("{field}: expected a refusal, got {other:?}"),
         }
     }
+    // Start activations outside [0, 1] are refused, not clipped.
+    let mut bad = a0.clone();
+    bad[3] = 1.5;
+    match d.relax_coomm(&task, &bad, &CoommRelaxation::default()) {
+        Err(e @ CoommRelaxationError::Equilibrium { iteration: 0, .. }) => {
+            assert!(e.to_string().contains("outside [0, 1]"), "{e}");
+        }
+        other => panic!("expected a refusal of a = 1.5, got {other:?}"),
+    }
     // A change tolerance above the first iteration's mean squared change stops after it.
     let cfg = CoommRelaxation {
         change_tolerance: 1.0,
