@@ -15,6 +15,8 @@
 //! padded lane leaking into a real one would differ in the last bits within a few steps;
 //! comparing `to_bits` catches one ulp.
 
+mod common;
+
 use octoarm_physics::batch::LANES;
 use octoarm_physics::kernel::Kernel;
 use octoarm_physics::{Damping, RodBatch, Settings, Simulation, StraightRod, Vec3};
@@ -57,18 +59,7 @@ fn update(lane: usize, p: usize, kappa: &mut [Vec3]) {
 
 /// Every bit of a simulation's evolving state and rest curvatures.
 fn bits(sim: &Simulation) -> Vec<u64> {
-    let s = &sim.state;
-    let mut out = vec![s.time.to_bits(), s.step, s.origin.to_bits()];
-    for v in [&s.position, &s.velocity, &s.omega] {
-        for a in [&v.x, &v.y, &v.z] {
-            out.extend(a.iter().map(|x| x.to_bits()));
-        }
-    }
-    for a in &s.director.m {
-        out.extend(a.iter().map(|x| x.to_bits()));
-    }
-    out.extend(s.work.iter().map(|x| x.to_bits()));
-    out.extend(s.dissipated.iter().map(|x| x.to_bits()));
+    let mut out = common::state_bits(sim);
     out.extend(sim.system.rest_kappa.iter().flatten().map(|x| x.to_bits()));
     out
 }

@@ -16,26 +16,16 @@
 //! stage would differ in the last bits within a few steps, and the difference grows along the
 //! run; comparing `to_bits` catches a single-ulp difference.
 
+mod common;
+
 use octoarm_physics::kernel::{Kernel, KERNEL_ENV};
 use octoarm_physics::{
     AnalyticalDamper, Damping, Load, Schedule, Settings, Simulation, Sphere, StraightRod,
 };
 
-/// Every bit of the evolving state.
+/// Every bit of the evolving state (`common::state_bits`).
 fn bits(sim: &Simulation) -> Vec<u64> {
-    let s = &sim.state;
-    let mut out = Vec::new();
-    for v in [&s.position, &s.velocity, &s.omega] {
-        for a in [&v.x, &v.y, &v.z] {
-            out.extend(a.iter().map(|x| x.to_bits()));
-        }
-    }
-    for a in &s.director.m {
-        out.extend(a.iter().map(|x| x.to_bits()));
-    }
-    out.extend(s.work.iter().map(|x| x.to_bits()));
-    out.extend(s.dissipated.iter().map(|x| x.to_bits()));
-    out
+    common::state_bits(sim)
 }
 
 /// The paper's arm (n elements) with damping, loads, contact and actuation chosen by `case`.

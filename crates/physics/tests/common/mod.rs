@@ -5,8 +5,28 @@
 #![allow(dead_code)]
 
 use octoarm_physics::{
-    InternalLoads, Mat3, Mat3s, Offsets, RodModel, RodState, SystemState, Vec3, Vec3s,
+    InternalLoads, Mat3, Mat3s, Offsets, RodModel, RodState, Simulation, SystemState, Vec3, Vec3s,
 };
+
+/// Every bit of a simulation's evolving state: time, step count and origin, positions,
+/// velocities, angular velocities, directors, work, dissipation and the friction stick springs
+/// (for tests that compare runs to the last bit).
+pub fn state_bits(sim: &Simulation) -> Vec<u64> {
+    let s = &sim.state;
+    let mut out = vec![s.time.to_bits(), s.step, s.origin.to_bits()];
+    for v in [&s.position, &s.velocity, &s.omega] {
+        for a in [&v.x, &v.y, &v.z] {
+            out.extend(a.iter().map(|x| x.to_bits()));
+        }
+    }
+    for a in &s.director.m {
+        out.extend(a.iter().map(|x| x.to_bits()));
+    }
+    out.extend(s.work.iter().map(|x| x.to_bits()));
+    out.extend(s.dissipated.iter().map(|x| x.to_bits()));
+    out.extend(s.stick.iter().flatten().map(|x| x.to_bits()));
+    out
+}
 
 /// The spec's initial condition (§13 d) on a built straight arm: v_i = A (ŝ_i/L0)² (0, 1, 0.4),
 /// ω_j = (0, 0, 2 A s̄_j / L0²) (material frame), node 0 and element 0 left at rest; `a` = A
