@@ -11,31 +11,19 @@
 
 #![allow(clippy::needless_range_loop)]
 
-use octoarm_control::{
-    CoommRelaxation, CoommRelaxationError, MuscleDesign, MuscleStatics, ReachTask,
-};
-use octoarm_physics::{MuscleModel, MuscleSpec, StraightRod, N_GROUPS};
+mod common;
+
+use octoarm_control::{CoommRelaxation, CoommRelaxationError, MuscleDesign, ReachTask};
+use octoarm_physics::N_GROUPS;
 
 const N: usize = 100;
 
 fn design() -> (MuscleDesign, ReachTask) {
-    let (model, state) = StraightRod::coomm_arm().with_elements(N).build().unwrap();
-    let mm = MuscleModel::new(MuscleSpec::coomm(), &model).unwrap();
-    let st = MuscleStatics::new(&model, mm, state.position[0], state.director[0]);
-    let task = ReachTask::coomm([0.01, 0.15, 0.06], [0.0; 3], state.position[N]);
-    (MuscleDesign::new(st), task)
+    common::coomm_reach_design(N)
 }
 
 fn random(n: usize, seed: u64, hi: f64) -> Vec<f64> {
-    let mut s = seed;
-    (0..n)
-        .map(|_| {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            hi * ((s >> 11) as f64) / ((1u64 << 53) as f64)
-        })
-        .collect()
+    common::lcg_uniform(n, seed, hi)
 }
 
 fn cosine(p: &[f64], q: &[f64]) -> f64 {

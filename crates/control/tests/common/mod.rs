@@ -281,3 +281,34 @@ pub fn worst_lyapunov_rise(series: &[Sample], from: f64) -> f64 {
     }
     worst
 }
+
+/// COOMM's muscular arm with `n_elements` elements, its design solver, and spec §7 A's reach
+/// task (p* = (0.01, 0.15, 0.06) m, COOMM's tip frame).
+pub fn coomm_reach_design(
+    n_elements: usize,
+) -> (octoarm_control::MuscleDesign, octoarm_control::ReachTask) {
+    use octoarm_physics::{MuscleModel, MuscleSpec};
+    let (model, state) = StraightRod::coomm_arm()
+        .with_elements(n_elements)
+        .build()
+        .unwrap();
+    let mm = MuscleModel::new(MuscleSpec::coomm(), &model).unwrap();
+    let st = octoarm_control::MuscleStatics::new(&model, mm, state.position[0], state.director[0]);
+    let task =
+        octoarm_control::ReachTask::coomm([0.01, 0.15, 0.06], [0.0; 3], state.position[n_elements]);
+    (octoarm_control::MuscleDesign::new(st), task)
+}
+
+/// `n` numbers uniform in [0, hi) from a 64-bit linear congruential generator seeded by `seed`
+/// (no dependency on `rand`'s stream, so the values never change with its version).
+pub fn lcg_uniform(n: usize, seed: u64, hi: f64) -> Vec<f64> {
+    let mut s = seed;
+    (0..n)
+        .map(|_| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            hi * ((s >> 11) as f64) / ((1u64 << 53) as f64)
+        })
+        .collect()
+}
