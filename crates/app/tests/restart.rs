@@ -237,3 +237,66 @@ fn assert_continuation_is_exact(
     }
     (full, k)
 }
+
+/// Bad input for the stick springs of `[initial_state]`: a file whose `contact_stick` does not
+/// fit the scenario's frictional obstacles, or holds a non-finite value, is refused naming the
+/// array and what is needed (exit 2, nothing written); the file itself is left as it was.
+#[test]
+fn stick_springs_that_do_not_fit_or_are_not_finite_are_refused() {
+    use ndarray::ArrayD;
+    use ndarray_npy::{NpzReader, NpzWriter};
+    let tmp = tempfile::tempdir().unwrap();
+    let dir: PathBuf = tmp.path().to_path_buf();
+    std::fs::write(dir.join("full.toml"), FRICTION.replace("DURATION", "0.01")).unwrap();
+    let o = octoarm(&["run", "-q", "full.toml", "--out", "full"], &dir);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let continued = |scenario: &str, file: &str| {
+        format!("{scenario}\n[initial_state]\nfile = \"{file}\"\nframe = 3\n")
+            .replace("DURATION", "0.005")
+    };
+
+    // The sphere without friction: one obstacle's springs fewer than the file has.
+    let frictionless = FRICTION.replace("friction = 0.5\n", "");
+    std::fs::write(
+        dir.join("fewer.toml"),
+        continued(&frictionless, "full/trajectory.npz"),
+    )
+    .unwrap();
+    let o = octoarm(&["run", "-q", "fewer.toml", "--out", "fewer"], &dir);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("contact_stick") && err.contains("frictional obstacles need [60, 3]"),
+        "{err}"
+    );
+    assert!(!dir.join("fewer").exists());
+
+    // A NaN in frame 3's springs.
+    let original = std::fs::read(dir.join("full/trajectory.npz")).unwrap();
+    let mut reader =
+        NpzReader::new(std::fs::File::open(dir.join("full/trajectory.npz")).unwrap()).unwrap();
+    let names = reader.names().unwrap();
+    let mut writer = NpzWriter::new(std::fs::File::create(dir.join("nan.npz")).unwrap());
+    for name in names {
+        let name = name.trim_end_matches(".npy").to_string();
+        let mut a: ArrayD<f64> = reader.by_name(&name).unwrap();
+        if name == "contact_stick" {
+            a[[3, 7, 1]] = f64::NAN;
+        }
+        writer.add_array(name.as_str(), &a).unwrap();
+    }
+    writer.finish().unwrap();
+    std::fs::write(dir.join("nan.toml"), continued(FRICTION, "nan.npz")).unwrap();
+    let o = octoarm(&["run", "-q", "nan.toml", "--out", "nan"], &dir);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("`contact_stick` of frame 3 holds NaN"),
+        "{err}"
+    );
+    assert!(!dir.join("nan").exists());
+    assert_eq!(
+        std::fs::read(dir.join("full/trajectory.npz")).unwrap(),
+        original
+    );
+}
