@@ -13,8 +13,8 @@ use octoarm_control::{
 };
 use octoarm_physics::{
     AnalyticalDamper, ContactParams, Damping, EndCondition, Joint, JointEnd, JointKind,
-    JointParams, Load, Material, ModelError, Motion, RestChange, RodModel, RodSpec, RodSystem,
-    Schedule, Settings, Side, Sphere, StraightRod, SystemBuilder, SystemState,
+    JointParams, Load, Material, ModelError, Motion, RestChange, RodGeometry, RodModel, RodSpec,
+    RodSystem, Schedule, Settings, Side, Sphere, StraightRod, SystemBuilder, SystemState,
 };
 use std::sync::Arc;
 
@@ -315,6 +315,10 @@ pub fn build_system(scn: &Scenario) -> Result<(RodSystem, SystemState), Scenario
                 .contact
                 .slip_velocity
                 .unwrap_or(ContactParams::default().slip_velocity),
+            rod_geometry: match cfg.contact.rod_geometry {
+                None | Some(RodGeometryName::Polyline) => RodGeometry::Polyline,
+                Some(RodGeometryName::Smooth) => RodGeometry::Smooth,
+            },
         })
         .map_err(|e| located("contact".into(), e))?;
     // The contact stiffness β E Â / l̂ (and its damping) must be a number.

@@ -1,6 +1,6 @@
 //! Claim (issue 11): the scenario format's contact keys — `[[plane]]`, `[[cylinder]]`,
 //! `[[obstacle]] friction`, `[contact] rods / self_contact / rod_friction / friction_eta /
-//! stick_stiffness / slip_velocity`, `[numerics] clamp_order` — reach the physics, and bad
+//! stick_stiffness / slip_velocity / rod_geometry`, `[numerics] clamp_order` — reach the physics, and bad
 //! values are errors naming the key and the allowed range.
 //!
 //! Reference: the built `RodSystem` (its planes, cylinders, contact parameters and settings), and
@@ -38,6 +38,7 @@ fn contact_keys_reach_the_system() {
 clamp_order = 2
 [contact]
 self_contact = true
+rod_geometry = "smooth"
 rod_friction = 0.3
 friction_eta = 0.25
 [[obstacle]]
@@ -63,6 +64,7 @@ friction = 0.2
     assert_eq!(system.settings().clamp_order, 2);
     let c = system.contact();
     assert!(c.self_contact && !c.rods);
+    assert_eq!(c.rod_geometry, octoarm_physics::RodGeometry::Smooth);
     assert_eq!(c.rod_friction.static_mu, [0.3; 3]);
     assert_eq!(c.friction_eta, 0.25);
     assert_eq!(system.obstacles()[0].friction.kinetic_mu, [0.4; 3]);
@@ -75,6 +77,20 @@ friction = 0.2
     assert_eq!(cyl.friction.static_mu, [0.2; 3]);
     // The contact springs enter the stable time step.
     assert!(system.contact_max_frequency() > 0.0);
+}
+
+#[test]
+fn rod_geometry_defaults_to_the_polyline_and_a_typo_names_the_choices() {
+    let (system, _) = build_system(&parse("[contact]\nrods = true\n").unwrap()).unwrap();
+    assert_eq!(
+        system.contact().rod_geometry,
+        octoarm_physics::RodGeometry::Polyline
+    );
+    let e = parse("[contact]\nrod_geometry = \"smoth\"\n").unwrap_err();
+    assert!(
+        e.contains("rod_geometry") && e.contains("smooth") && e.contains("polyline"),
+        "{e}"
+    );
 }
 
 #[test]

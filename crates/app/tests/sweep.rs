@@ -305,7 +305,7 @@ fn bad_sweep_files_are_refused_with_file_line_column_and_key() {
     let e =
         bad("path = \"rod.length\"\nrange = { start = 0.1, stop = 0.2, num = 3, scale = \"lg\" }");
     assert!(
-        e.contains("unknown kind \"lg\"") || e.contains("unknown variant"),
+        e.contains("unknown value \"lg\" for `scale`") && e.contains("did you mean `log`"),
         "{e}"
     );
     let e = bad(

@@ -272,6 +272,44 @@ pub struct ContactParams {
     /// Friction between rods and within a rod (default none).
     #[cfg_attr(feature = "serde", serde(default))]
     pub rod_friction: Friction,
+    /// The centreline rod–rod contact sees (default the polyline of the nodes).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub rod_geometry: RodGeometry,
+}
+
+/// The centreline that rod–rod and self contact measure gaps on (docs/physics.md "Rod–rod and
+/// self contact").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum RodGeometry {
+    /// Straight segments between nodes (PyElastica's geometry). A point contact in the middle
+    /// of an element is a saddle there: a rope pressed mid-element slides towards a node.
+    #[default]
+    Polyline,
+    /// The uniform cubic B-spline with the nodes as control points (C², it cuts a bent rope's
+    /// corners by ≈ l²κ/6): contact carried by it is nearly independent of where along an
+    /// element it acts, so a rope pressed mid-element stays there.
+    Smooth,
+}
+
+impl RodGeometry {
+    /// The geometry named `name` ("polyline" or "smooth").
+    pub fn parse(name: &str) -> Option<RodGeometry> {
+        match name {
+            "polyline" => Some(RodGeometry::Polyline),
+            "smooth" => Some(RodGeometry::Smooth),
+            _ => None,
+        }
+    }
+
+    /// Its name in scenarios and Python.
+    pub fn name(self) -> &'static str {
+        match self {
+            RodGeometry::Polyline => "polyline",
+            RodGeometry::Smooth => "smooth",
+        }
+    }
 }
 
 fn default_eta() -> f64 {
@@ -297,6 +335,7 @@ impl Default for ContactParams {
             rods: false,
             self_contact: false,
             rod_friction: Friction::NONE,
+            rod_geometry: RodGeometry::Polyline,
         }
     }
 }

@@ -45,7 +45,7 @@ pub use actuation::Actuation;
 pub use batch::{BatchError, RodBatch};
 pub use contact::{
     closest_points, contact_energy, max_penetration, obstacle_energy, obstacle_penetration,
-    ContactParams, Cylinder, Friction, Obstacles, Plane, Sphere,
+    ContactParams, Cylinder, Friction, Obstacles, Plane, RodGeometry, Sphere,
 };
 pub use damping::{AnalyticalDamper, Damping};
 pub use ends::{EndCondition, Motion, Side};

@@ -865,10 +865,12 @@ impl Simulation {
     /// (`self_contact`), with Coulomb friction between rods (`rod_friction`,
     /// `rod_kinetic_friction`, as `add_plane`); the friction regularisation `friction_eta`
     /// (viscosity η m / Δt), `stick_stiffness` (obstacle stick spring / k) and the rod–rod
-    /// `slip_velocity` [m/s].
+    /// `slip_velocity` [m/s]; the centreline rod–rod contact measures gaps on,
+    /// `rod_geometry` = "polyline" (straight segments) or "smooth" (the cubic B-spline of the
+    /// nodes: a rope pressed mid-element stays there instead of sliding to a node).
     #[pyo3(signature = (beta = 1.0, zeta = 0.5, rods = false, self_contact = false,
         rod_friction = None, rod_kinetic_friction = None, friction_eta = 0.5,
-        stick_stiffness = 0.5, slip_velocity = 1e-3))]
+        stick_stiffness = 0.5, slip_velocity = 1e-3, rod_geometry = "polyline"))]
     #[allow(clippy::too_many_arguments)]
     fn set_contact(
         &self,
@@ -882,8 +884,14 @@ impl Simulation {
         friction_eta: f64,
         stick_stiffness: f64,
         slip_velocity: f64,
+        rod_geometry: &str,
     ) -> PyResult<()> {
         let rod_friction = read_friction(rod_friction, rod_kinetic_friction)?;
+        let rod_geometry = phys::RodGeometry::parse(rod_geometry).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "rod_geometry: {rod_geometry:?} is not one of \"polyline\", \"smooth\""
+            ))
+        })?;
         self.lock(py)
             .set_contact(phys::ContactParams {
                 beta,
@@ -894,6 +902,7 @@ impl Simulation {
                 rods,
                 self_contact,
                 rod_friction,
+                rod_geometry,
             })
             .map_err(model_error)
     }

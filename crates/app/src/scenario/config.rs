@@ -665,6 +665,19 @@ pub struct ContactConfig {
     /// Slip speed of rod–rod friction [m/s], > 0; default 1e-3.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slip_velocity: Option<f64>,
+    /// The centreline rod–rod contact measures gaps on: "polyline" (default) or "smooth".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rod_geometry: Option<RodGeometryName>,
+}
+
+/// `[contact] rod_geometry`: straight segments between nodes, or their cubic B-spline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RodGeometryName {
+    /// Straight segments (PyElastica's geometry).
+    Polyline,
+    /// The uniform cubic B-spline with the nodes as control points.
+    Smooth,
 }
 
 impl Default for ContactConfig {
@@ -679,6 +692,7 @@ impl Default for ContactConfig {
             friction_eta: None,
             stick_stiffness: None,
             slip_velocity: None,
+            rod_geometry: None,
         }
     }
 }

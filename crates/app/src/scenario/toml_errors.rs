@@ -81,7 +81,28 @@ pub(crate) fn explain_toml_error(source: &str, e: &toml::de::Error) -> String {
     }
     if let Some(rest) = msg.strip_prefix("unknown variant `") {
         let (name, expected) = split_unknown(rest);
-        return with_suggestion(format!("unknown kind \"{name}\""), &name, &expected);
+        // Name the key the value was given to (the text before `=` on the value's line).
+        let key = e
+            .span()
+            .and_then(|sp| {
+                let line_start = source[..sp.start].rfind('\n').map_or(0, |i| i + 1);
+                // The last `name =` before the value (inline tables hold several).
+                let (before, _) = source[line_start..sp.start].rsplit_once('=')?;
+                let k = before
+                    .trim_end()
+                    .rsplit(|c: char| c.is_whitespace() || c == '{' || c == ',')
+                    .next()?;
+                let section = section_of(source, sp.start).unwrap_or_default();
+                (!k.is_empty() && k != "kind").then(|| {
+                    if section.is_empty() {
+                        format!("unknown value \"{name}\" for `{k}`")
+                    } else {
+                        format!("unknown value \"{name}\" for `{k}` in [{section}]")
+                    }
+                })
+            })
+            .unwrap_or_else(|| format!("unknown kind \"{name}\""));
+        return with_suggestion(key, &name, &expected);
     }
     if let Some(rest) = msg.strip_prefix("missing field `") {
         let name = rest.trim_end_matches('`');

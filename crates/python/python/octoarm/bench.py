@@ -82,9 +82,12 @@ class OctoarmSolver:
         }
     )
 
-    def __init__(self, time_step_scale: float = 1.0, clamp_order: int = 2) -> None:
+    def __init__(
+        self, time_step_scale: float = 1.0, clamp_order: int = 2, rod_geometry: str = "smooth"
+    ) -> None:
         self.time_step_scale = float(time_step_scale)
         self.clamp_order = int(clamp_order)
+        self.rod_geometry = str(rod_geometry)
 
     # -- building ---------------------------------------------------------------------------
 
@@ -153,6 +156,7 @@ class OctoarmSolver:
             rods=len(scenario.rods) > 1,
             self_contact=bool(scenario.self_contact),
             rod_friction=rod_mu if rod_mu > 0.0 else None,
+            rod_geometry=self.rod_geometry,
         )
         return sim
 
@@ -183,6 +187,7 @@ class OctoarmSolver:
             "friction": "Coulomb: stick spring 0.5 k against obstacles (slip test on the spring), viscous-capped between rods",
             "rod_contact": len(scenario.rods) > 1,
             "self_contact": bool(scenario.self_contact),
+            "rod_geometry": self.rod_geometry,
         }
 
     def run(self, scenario: Scenario, *, n_elements: int, n_frames: int) -> Trajectory:
