@@ -1,7 +1,8 @@
 """The cosseratbench adapter (issue 11): octoarm registered as cosseratbench's solver
 ``octoarm`` through its entry point, the Solver protocol with truthful capabilities, and the
 cantilever and catenary experiments run at small size and scored by cosseratbench's own code
-against its analytical references (Euler-Bernoulli tip deflection; the elastic catenary).
+against its analytical references (Euler-Bernoulli tip deflection; the elastic catenary), and
+the crossing against its elastica reference at two element counts (convergence order).
 
 Tolerances: cantilever at 10 elements with the second-order clamp, tip-deflection error below
 1 % (measured 0.55 %; PyElastica's rigid clamped element gives 14 % there); catenary at 20
