@@ -265,7 +265,6 @@ fn polyline_pair(
     dt: f64,
     out: &mut ExternalLoads,
 ) {
-    let params = &system.contact;
     let (ra, rb) = (sc.elem_rod[e] as usize, sc.elem_rod[k] as usize);
     let (ja, jb) = (sc.elem_local[e] as usize, sc.elem_local[k] as usize);
     let (rod_a, rod_b) = (&system.rods[ra], &system.rods[rb]);
@@ -290,13 +289,6 @@ fn polyline_pair(
         return;
     }
     let n = scale(1.0 / dist, d);
-    let (ma, mb) = (&rod_a.model, &rod_b.model);
-    let ka = ma.material.youngs_modulus * ma.area[ja] / ma.rest_length[ja];
-    let kb = mb.material.youngs_modulus * mb.area[jb] / mb.rest_length[jb];
-    let kc = params.beta * ka.min(kb);
-    let (m1, m2) = (ma.element_mass[ja], mb.element_mass[jb]);
-    let m_red = m1 * m2 / (m1 + m2);
-    let damping = 2.0 * params.zeta * (kc * m_red).sqrt();
     let lerp = |x: Vec3, y: Vec3, w: f64| {
         [
             (1.0 - w) * x[0] + w * y[0],
@@ -306,12 +298,43 @@ fn polyline_pair(
     };
     let vp = lerp(state.velocity.get(na), state.velocity.get(na + 1), s);
     let vq = lerp(state.velocity.get(nb), state.velocity.get(nb + 1), t);
-    let vrel = sub(vp, vq);
+    let f = pair_force(system, (e, k), sc, g, n, sub(vp, vq), da, dt);
+    out.force.add(na, scale(1.0 - s, f));
+    out.force.add(na + 1, scale(s, f));
+    out.force.add(nb, scale(-(1.0 - t), f));
+    out.force.add(nb + 1, scale(-t, f));
+}
+
+/// The contact force on element e from element k (−it on k): the penalty k_c g with
+/// k_c = β min(E Â/l̂) of the two, damping 2ζ√(k_c m_red) on the normal relative velocity, never
+/// adhesive, and regularised Coulomb friction along the plane normal to n (e's direction `along`
+/// orients the anisotropic coefficients).
+#[allow(clippy::too_many_arguments)]
+fn pair_force(
+    system: &RodSystem,
+    (e, k): (usize, usize),
+    sc: &RodContactScratch,
+    g: f64,
+    n: Vec3,
+    vrel: Vec3,
+    along: Vec3,
+    dt: f64,
+) -> Vec3 {
+    let params = &system.contact;
+    let (ra, rb) = (sc.elem_rod[e] as usize, sc.elem_rod[k] as usize);
+    let (ja, jb) = (sc.elem_local[e] as usize, sc.elem_local[k] as usize);
+    let (ma, mb) = (&system.rods[ra].model, &system.rods[rb].model);
+    let ka = ma.material.youngs_modulus * ma.area[ja] / ma.rest_length[ja];
+    let kb = mb.material.youngs_modulus * mb.area[jb] / mb.rest_length[jb];
+    let kc = params.beta * ka.min(kb);
+    let (m1, m2) = (ma.element_mass[ja], mb.element_mass[jb]);
+    let m_red = m1 * m2 / (m1 + m2);
+    let damping = 2.0 * params.zeta * (kc * m_red).sqrt();
     let vn = dot(vrel, n);
     let fnorm = (kc * g - damping * vn).max(0.0);
     let mut f = scale(fnorm, n);
     if !params.rod_friction.is_none() {
-        let tangent = scale(1.0 / norm(da), da);
+        let tangent = scale(1.0 / norm(along), along);
         let vt = sub(vrel, scale(vn, n));
         let c = params.friction_eta * m_red / dt;
         let ft = friction_force(
@@ -325,10 +348,7 @@ fn polyline_pair(
         );
         f = [f[0] + ft[0], f[1] + ft[1], f[2] + ft[2]];
     }
-    out.force.add(na, scale(1.0 - s, f));
-    out.force.add(na + 1, scale(s, f));
-    out.force.add(nb, scale(-(1.0 - t), f));
-    out.force.add(nb + 1, scale(-t, f));
+    f
 }
 
 /// Uniform cubic B-spline basis at u ∈ [0, 1]: the weights of the four control points P0…P3
@@ -594,7 +614,6 @@ fn add_smooth_contact_forces(
     dt: f64,
     out: &mut ExternalLoads,
 ) {
-    let params = &system.contact;
     for &(e, k) in &sc.pairs {
         let (e, k) = (e as usize, k as usize);
         let (ra, rb) = (sc.elem_rod[e] as usize, sc.elem_rod[k] as usize);
@@ -633,34 +652,11 @@ fn add_smooth_contact_forces(
             continue;
         }
         let n = scale(1.0 / dist, d);
-        let ka = ma.material.youngs_modulus * ma.area[ja] / ma.rest_length[ja];
-        let kb = mb.material.youngs_modulus * mb.area[jb] / mb.rest_length[jb];
-        let kc = params.beta * ka.min(kb);
-        let (m1, m2) = (ma.element_mass[ja], mb.element_mass[jb]);
-        let m_red = m1 * m2 / (m1 + m2);
-        let damping = 2.0 * params.zeta * (kc * m_red).sqrt();
         let va = control_points(|i| state.velocity.get(rod_a.at.node + i), ja, ma.n_elements);
         let vb = control_points(|i| state.velocity.get(rod_b.at.node + i), jb, mb.n_elements);
         let vrel = sub(combine(&va, &wa), combine(&vb, &wb));
-        let vn = dot(vrel, n);
-        let fnorm = (kc * g - damping * vn).max(0.0);
-        let mut f = scale(fnorm, n);
-        if !params.rod_friction.is_none() {
-            let pu = combine(&pa.points, &da);
-            let tangent = scale(1.0 / norm(pu), pu);
-            let vt = sub(vrel, scale(vn, n));
-            let c = params.friction_eta * m_red / dt;
-            let ft = friction_force(
-                vt,
-                tangent,
-                n,
-                fnorm,
-                &params.rod_friction,
-                c,
-                params.slip_velocity,
-            );
-            f = [f[0] + ft[0], f[1] + ft[1], f[2] + ft[2]];
-        }
+        let pu = combine(&pa.points, &da);
+        let f = pair_force(system, (e, k), sc, g, n, vrel, pu, dt);
         pa.spread(out, &wa, f, 1.0);
         pb.spread(out, &wb, f, -1.0);
     }
