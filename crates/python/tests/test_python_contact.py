@@ -33,10 +33,11 @@ def test_a_rod_dropped_on_a_floor_rests_on_it():
     assert free.positions[:, 2].max() < -0.1
 
 
-def test_cylinder_and_rod_contact_are_accepted():
+@pytest.mark.parametrize("geometry", ["polyline", "smooth"])
+def test_cylinder_and_rod_contact_are_accepted(geometry):
     sim = rod_above_floor(False)
     sim.add_cylinder((0.1, 0.0, -0.02), (0.0, 1.0, 0.0), 0.02, 0.1, friction=(0.2, 0.3, 0.4))
-    sim.set_contact(self_contact=True, rod_friction=0.3)
+    sim.set_contact(self_contact=True, rod_friction=0.3, rod_geometry=geometry)
     sim.step(20_000)
     # Resting on top of the cylinder (radius 2 cm + rod radius 5 mm around its axis).
     mid = sim.positions[10]
@@ -52,6 +53,7 @@ def test_cylinder_and_rod_contact_are_accepted():
         (lambda s: s.add_plane((0, 0, 0), (0, 0, 0)), "plane.normal"),
         (lambda s: s.add_cylinder((0, 0, 0), (0, 0, 1), -1.0, 1.0), "cylinder.radius"),
         (lambda s: s.set_contact(friction_eta=2.0), "contact.friction_eta"),
+        (lambda s: s.set_contact(rods=True, rod_geometry="curved"), "rod_geometry"),
     ],
 )
 def test_bad_contact_input_names_the_field(call, field):
