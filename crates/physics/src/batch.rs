@@ -17,9 +17,10 @@ use crate::ends::EndCondition;
 use crate::error::{ModelError, StepError};
 use crate::internal::{element_loads, voronoi_loads};
 use crate::kernel::Kernel;
+use crate::lanes::{s, L, X};
 use crate::math::{
     asin_over_sin_series, bjorck, dot_r, exp_neg_skew, exp_neg_skew_series_r, log_factor_trig,
-    log_parts, mat_mul, mat_mul_r, orthonormality_defect, Mat3, Real, Vec3, EXP_SERIES_MAX_SQ,
+    log_parts, mat_mul, mat_mul_r, orthonormality_defect, Mat3, Vec3, EXP_SERIES_MAX_SQ,
     LOG_SERIES_MAX_SQ,
 };
 use crate::model::RodModel;
@@ -28,12 +29,12 @@ use crate::step::{kick_component, REORTHONORMALISE_ABOVE};
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// Rods per chunk: 4 f64 lanes fill one AVX2 register. (AVX-512's 8 lanes would halve the
-/// instruction count again on CPUs that have it, but the library dispatches only baseline and
-/// AVX2 code; with 4 lanes a batch of 8 arms still makes two chunks for two cores.)
-pub const LANES: usize = 4;
+/// Rods per chunk: the lanes of `lanes::X`, 4 f64 that fill one AVX2 register. (AVX-512's 8
+/// lanes would halve the instruction count again on CPUs that have it, but the library
+/// dispatches only baseline and AVX2 code; with 4 lanes a batch of 8 arms still makes two chunks
+/// for two cores.)
+pub const LANES: usize = crate::lanes::LANES;
 
-type L = [f64; LANES];
 const ZERO: L = [0.0; LANES];
 
 /// A system a `RodBatch` cannot step, or a lane index out of range.
@@ -647,58 +648,6 @@ fn hold_values(sh: &Shared, ch: &mut Chunk) {
     for k in 0..9 {
         ch.director[k][0] = [sh.base_frame[k / 3][k % 3]; LANES];
     }
-}
-
-/// `LANES` f64 lanes with lane-wise IEEE arithmetic: the `Real` the shared kernels are
-/// instantiated with for a chunk (LLVM turns each operation into one vector instruction).
-#[derive(Debug, Clone, Copy)]
-#[repr(transparent)]
-struct X(L);
-
-macro_rules! lanewise {
-    ($tr:ident, $f:ident, $op:tt) => {
-        impl std::ops::$tr for X {
-            type Output = X;
-            #[inline(always)]
-            fn $f(self, o: X) -> X {
-                let (a, b) = (self.0, o.0);
-                X([a[0] $op b[0], a[1] $op b[1], a[2] $op b[2], a[3] $op b[3]])
-            }
-        }
-    };
-}
-lanewise!(Add, add, +);
-lanewise!(Sub, sub, -);
-lanewise!(Mul, mul, *);
-lanewise!(Div, div, /);
-
-impl std::ops::Neg for X {
-    type Output = X;
-    #[inline(always)]
-    fn neg(self) -> X {
-        let a = self.0;
-        X([-a[0], -a[1], -a[2], -a[3]])
-    }
-}
-
-impl Real for X {
-    #[inline(always)]
-    fn splat(x: f64) -> X {
-        X([x; LANES])
-    }
-}
-
-impl X {
-    #[inline(always)]
-    fn sqrt(self) -> X {
-        let a = self.0;
-        X([a[0].sqrt(), a[1].sqrt(), a[2].sqrt(), a[3].sqrt()])
-    }
-}
-
-#[inline(always)]
-fn s(x: f64) -> X {
-    X::splat(x)
 }
 
 #[inline(always)]

@@ -4,9 +4,10 @@
 //! (with the velocity-dependent torques) and `ElasticLoads` (without), which controllers use to
 //! evaluate loads for other rest strains.
 
+use crate::lanes::{gather3, load3, LANES, X};
 use crate::math::{
-    cross, cross_r, dot, dot_r, log_relative, mat_t_vec, mat_t_vec_r, mat_vec, mat_vec_r, Mat3,
-    Real, Vec3,
+    asin_over_sin_series, cross, cross_r, dot, dot_r, log_factor_trig, log_parts, log_relative,
+    mat_t_vec, mat_t_vec_r, mat_vec, mat_vec_r, Mat3, Real, Vec3, LOG_SERIES_MAX_SQ,
 };
 use crate::model::RodModel;
 use crate::muscles::{MuscleModel, MuscleScratch, Resultants, Strains, N_GROUPS};
@@ -39,17 +40,15 @@ pub struct InternalLoads {
     pub torque: Vec3s,
     // Per rod, padded to its n + 1 nodes (node order): f_j = Qᵀn/e with f[n] = 0, and τ/ε³ and
     // ½ D̂ κ×τ/ε³ with slot k + 1 holding Voronoi point k and slots 0 and n zero.
-    elem_force: Vec<Vec3>,
-    couple_pad: Vec<Vec3>,
-    coupling_pad: Vec<Vec3>,
+    // Stored by component, so that the element-lane loops read and write them whole.
+    elem_force: [Vec<f64>; 3],
+    couple_pad: [Vec<f64>; 3],
+    coupling_pad: [Vec<f64>; 3],
     // Element length l and 1/l, and 1/ε³ per interior point: the square roots and divisions,
     // computed in their own short loops so that they vectorise (spec §14).
     length: Vec<f64>,
     inv_length: Vec<f64>,
     inv_eps_cubed: Vec<f64>,
-    // The rod's frames gathered into 3×3 matrices once per evaluation: loops A and B read each
-    // frame whole (one contiguous load instead of nine streams, fewer live pointers).
-    frames: Vec<Mat3>,
     /// Muscle force resultant n^μ [N] (material) per element of the last evaluation with
     /// muscles (spec eq. 2.5; zero where a rod had none).
     pub muscle_n: Vec3s,
@@ -102,13 +101,12 @@ impl InternalLoads {
             couple: Vec3s::zeros(n_interior),
             force: Vec3s::zeros(n_nodes),
             torque: Vec3s::zeros(n_elements),
-            elem_force: vec![[0.0; 3]; n_nodes],
-            couple_pad: vec![[0.0; 3]; n_nodes],
-            coupling_pad: vec![[0.0; 3]; n_nodes],
+            elem_force: std::array::from_fn(|_| vec![0.0; n_nodes]),
+            couple_pad: std::array::from_fn(|_| vec![0.0; n_nodes]),
+            coupling_pad: std::array::from_fn(|_| vec![0.0; n_nodes]),
             length: vec![0.0; n_elements],
             inv_length: vec![0.0; n_elements],
             inv_eps_cubed: vec![0.0; n_interior],
-            frames: vec![[[0.0; 3]; 3]; n_elements],
             muscle_n: Vec3s::zeros(n_elements),
             muscle_tau: Vec3s::zeros(n_interior),
             muscle_force: Vec3s::zeros(n_nodes),
@@ -217,15 +215,16 @@ impl InternalLoads {
             &rod.velocity[2][..n + 1],
         );
         let qs: [&[f64]; 9] = std::array::from_fn(|k| &rod.director[k][..n]);
-        let q = &mut self.frames[e0..e0 + n];
-        for (j, qj) in q.iter_mut().enumerate() {
-            *qj = [
+        let frame = |j: usize| -> Mat3 {
+            [
                 [qs[0][j], qs[1][j], qs[2][j]],
                 [qs[3][j], qs[4][j], qs[5][j]],
                 [qs[6][j], qs[7][j], qs[8][j]],
-            ];
-        }
-        let q = &self.frames[e0..e0 + n];
+            ]
+        };
+        let frame_x = |j: usize| -> [[X; 3]; 3] {
+            std::array::from_fn(|r| std::array::from_fn(|c| X::load(qs[3 * r + c], j)))
+        };
         let (wx, wy, wz) = (&rod.omega[0][..n], &rod.omega[1][..n], &rod.omega[2][..n]);
         let lr = &model.rest_length[..n];
         let inv_lr = &model.inv_rest_length[..n];
@@ -233,7 +232,12 @@ impl InternalLoads {
         let inertia = &model.inertia[..n];
         let s0 = &rest_sigma[..n];
         let dil = &mut self.dilatation[e0..e0 + n];
-        let f = &mut self.elem_force[n0..n0 + n + 1];
+        let [fx, fy, fz] = &mut self.elem_force;
+        let (fx, fy, fz) = (
+            &mut fx[n0..n0 + n + 1],
+            &mut fy[n0..n0 + n + 1],
+            &mut fz[n0..n0 + n + 1],
+        );
         let len = &mut self.length[e0..e0 + n];
         let inv_len = &mut self.inv_length[e0..e0 + n];
 
@@ -246,15 +250,63 @@ impl InternalLoads {
             inv_len[j] = 1.0 / l;
             dil[j] = l * inv_lr[j];
         }
+        let (inv_len, dil) = (&*inv_len, &*dil);
 
         // Loop A: geometry, shear/stretch strain (eq. 2.2), stress, element force (eq. 4.1) and
         // the element-local torques (shear–stretch coupling, gyroscopic, unsteady dilatation).
+        // Lanes across elements (`lanes::X`), the last n mod 4 elements one by one: the same
+        // formula (`element_loads`) either way, so every element gets the same bits.
         {
             let (tgx, tgy, tgz) = split3(&mut self.tangent, e0, n);
             let (sgx, sgy, sgz) = split3(&mut self.sigma, e0, n);
             let (stx, sty, stz) = split3(&mut self.stress, e0, n);
             let (tqx, tqy, tqz) = split3(&mut self.torque, e0, n);
-            for j in 0..n {
+            let (p3, v3, w3) = ([px, py, pz], [vx, vy, vz], [wx, wy, wz]);
+            let n4 = n - n % LANES;
+            for j in (0..n4).step_by(LANES) {
+                let (a, b) = (load3(p3, j), load3(p3, j + 1));
+                let dx = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+                let rates = with_velocity_terms.then(|| {
+                    let (a, b) = (load3(v3, j), load3(v3, j + 1));
+                    (
+                        [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                        load3(w3, j),
+                        gather3(inertia, j),
+                    )
+                });
+                let el = element_loads(
+                    dx,
+                    X::load(inv_len, j),
+                    X::load(dil, j),
+                    X::load(lr, j),
+                    X::load(inv_lr, j),
+                    &frame_x(j),
+                    gather3(stiff, j),
+                    gather3(s0, j),
+                    rates,
+                );
+                let [f0, f1, f2] = el.force;
+                f0.store(fx, j);
+                f1.store(fy, j);
+                f2.store(fz, j);
+                let [t0, t1, t2] = el.tangent;
+                t0.store(tgx, j);
+                t1.store(tgy, j);
+                t2.store(tgz, j);
+                let [g0, g1, g2] = el.sigma;
+                g0.store(sgx, j);
+                g1.store(sgy, j);
+                g2.store(sgz, j);
+                let [n0_, n1_, n2_] = el.stress;
+                n0_.store(stx, j);
+                n1_.store(sty, j);
+                n2_.store(stz, j);
+                let [q0, q1, q2] = el.torque;
+                q0.store(tqx, j);
+                q1.store(tqy, j);
+                q2.store(tqz, j);
+            }
+            for j in n4..n {
                 let dx = [px[j + 1] - px[j], py[j + 1] - py[j], pz[j + 1] - pz[j]];
                 let rates = with_velocity_terms.then(|| {
                     (
@@ -264,9 +316,17 @@ impl InternalLoads {
                     )
                 });
                 let el = element_loads(
-                    dx, inv_len[j], dil[j], lr[j], inv_lr[j], &q[j], stiff[j], s0[j], rates,
+                    dx,
+                    inv_len[j],
+                    dil[j],
+                    lr[j],
+                    inv_lr[j],
+                    &frame(j),
+                    stiff[j],
+                    s0[j],
+                    rates,
                 );
-                f[j] = el.force;
+                (fx[j], fy[j], fz[j]) = (el.force[0], el.force[1], el.force[2]);
                 let (t, sg, nn, tq) = (el.tangent, el.sigma, el.stress, el.torque);
                 (tgx[j], tgy[j], tgz[j]) = (t[0], t[1], t[2]);
                 (sgx[j], sgy[j], sgz[j]) = (sg[0], sg[1], sg[2]);
@@ -274,7 +334,7 @@ impl InternalLoads {
                 (tqx[j], tqy[j], tqz[j]) = (tq[0], tq[1], tq[2]);
             }
         }
-        f[n] = [0.0; 3];
+        (fx[n], fy[n], fz[n]) = (0.0, 0.0, 0.0);
 
         // Loop B: curvature (eq. 2.3), Voronoi dilatation, couple (eq. 3.3), scaled by 1/ε³.
         let nk = n - 1;
@@ -283,35 +343,86 @@ impl InternalLoads {
         let bend = &model.bend_stiffness[..nk];
         let kap0 = &rest_kappa[..nk];
         let eps_out = &mut self.voronoi_dilatation[k0..k0 + nk];
-        let tb = &mut self.couple_pad[n0..n0 + n + 1];
-        let hh = &mut self.coupling_pad[n0..n0 + n + 1];
+        let [tbx, tby, tbz] = &mut self.couple_pad;
+        let (tbx, tby, tbz) = (
+            &mut tbx[n0..n0 + n + 1],
+            &mut tby[n0..n0 + n + 1],
+            &mut tbz[n0..n0 + n + 1],
+        );
+        let [hhx, hhy, hhz] = &mut self.coupling_pad;
+        let (hhx, hhy, hhz) = (
+            &mut hhx[n0..n0 + n + 1],
+            &mut hhy[n0..n0 + n + 1],
+            &mut hhz[n0..n0 + n + 1],
+        );
         let inv_e3 = &mut self.inv_eps_cubed[k0..k0 + nk];
         for k in 0..nk {
             let eps = 0.5 * (dil[k] * lr[k] + dil[k + 1] * lr[k + 1]) * inv_dr[k];
             eps_out[k] = eps;
             inv_e3[k] = 1.0 / (eps * eps * eps);
         }
+        let inv_e3 = &*inv_e3;
         let (kpx, kpy, kpz) = split3(&mut self.kappa, k0, nk);
         let (cpx, cpy, cpz) = split3(&mut self.couple, k0, nk);
-        for k in 0..nk {
+        // Lanes across Voronoi points. `log_relative` per lane: its series for every lane, and
+        // libm's atan2 only for the lanes outside the series' range (rare: turning angles
+        // above 0.05 rad), so the loop has no branch per point in the common case.
+        let nk4 = nk - nk % LANES;
+        for k in (0..nk4).step_by(LANES) {
+            let (w, c, s2) = log_parts(&frame_x(k + 1), &frame_x(k));
+            let mut factor = asin_over_sin_series(s2);
+            let series = |l: usize| c.0[l] > 0.0 && s2.0[l] < LOG_SERIES_MAX_SQ;
+            if !(series(0) & series(1) & series(2) & series(3)) {
+                for l in (0..LANES).filter(|&l| !series(l)) {
+                    factor.0[l] = log_factor_trig(s2.0[l], c.0[l]).0;
+                }
+            }
             let v = voronoi_loads(
-                log_relative(&q[k + 1], &q[k]).0,
+                [factor * w[0], factor * w[1], factor * w[2]],
+                X::load(inv_dr, k),
+                X::load(dr, k),
+                gather3(bend, k),
+                gather3(kap0, k),
+                X::load(inv_e3, k),
+            );
+            let [a0, a1, a2] = v.scaled_couple;
+            a0.store(tbx, k + 1);
+            a1.store(tby, k + 1);
+            a2.store(tbz, k + 1);
+            let [b0, b1, b2] = v.coupling;
+            b0.store(hhx, k + 1);
+            b1.store(hhy, k + 1);
+            b2.store(hhz, k + 1);
+            let [c0, c1, c2] = v.kappa;
+            c0.store(kpx, k);
+            c1.store(kpy, k);
+            c2.store(kpz, k);
+            let [d0, d1, d2] = v.couple;
+            d0.store(cpx, k);
+            d1.store(cpy, k);
+            d2.store(cpz, k);
+        }
+        for k in nk4..nk {
+            let v = voronoi_loads(
+                log_relative(&frame(k + 1), &frame(k)).0,
                 inv_dr[k],
                 dr[k],
                 bend[k],
                 kap0[k],
                 inv_e3[k],
             );
-            tb[k + 1] = v.scaled_couple;
-            hh[k + 1] = v.coupling;
+            let (a, b) = (v.scaled_couple, v.coupling);
+            (tbx[k + 1], tby[k + 1], tbz[k + 1]) = (a[0], a[1], a[2]);
+            (hhx[k + 1], hhy[k + 1], hhz[k + 1]) = (b[0], b[1], b[2]);
             let (kap, tau) = (v.kappa, v.couple);
             (kpx[k], kpy[k], kpz[k]) = (kap[0], kap[1], kap[2]);
             (cpx[k], cpy[k], cpz[k]) = (tau[0], tau[1], tau[2]);
         }
-        tb[0] = [0.0; 3];
-        hh[0] = [0.0; 3];
-        tb[n] = [0.0; 3];
-        hh[n] = [0.0; 3];
+        for end in [0, n] {
+            (tbx[end], tby[end], tbz[end]) = (0.0, 0.0, 0.0);
+            (hhx[end], hhy[end], hhz[end]) = (0.0, 0.0, 0.0);
+        }
+        let (f, tb, hh) = ([fx, fy, fz], [tbx, tby, tbz], [hhx, hhy, hhz]);
 
         if let Some((mm, act)) = muscles {
             // Muscles (spec §2), from the strains just computed, fused into f, τ̃ and the
@@ -353,10 +464,10 @@ impl InternalLoads {
             for j in 0..n {
                 let g = e0 + j;
                 let nm = self.muscle_n.get(g);
-                let fl = mat_t_vec(&q[j], nm);
+                let fl = mat_t_vec(&frame(j), nm);
                 mf[j] = fl;
                 for c in 0..3 {
-                    f[j][c] += fl[c];
+                    f[c][j] += fl[c];
                 }
                 let sg = self.sigma.get(g);
                 let cr = cross([sg[0], sg[1], 1.0 + sg[2]], nm);
@@ -377,8 +488,8 @@ impl InternalLoads {
                 mtb[k + 1] = tau;
                 mhh[k + 1] = kt;
                 for c in 0..3 {
-                    tb[k + 1][c] += tau[c];
-                    hh[k + 1][c] += kt[c];
+                    tb[c][k + 1] += tau[c];
+                    hh[c][k + 1] += kt[c];
                 }
             }
             for j in 0..n {
@@ -415,7 +526,7 @@ impl InternalLoads {
                 }
                 let t = self.tangent.get(e0 + j);
                 for c in 0..3 {
-                    f[j][c] -= coef * t[c];
+                    f[c][j] -= coef * t[c];
                 }
             }
         }
@@ -427,9 +538,9 @@ impl InternalLoads {
             &mut self.torque.z[e0..e0 + n],
         );
         for j in 0..n {
-            tx[j] += tb[j + 1][0] - tb[j][0] + hh[j + 1][0] + hh[j][0];
-            ty[j] += tb[j + 1][1] - tb[j][1] + hh[j + 1][1] + hh[j][1];
-            tz[j] += tb[j + 1][2] - tb[j][2] + hh[j + 1][2] + hh[j][2];
+            tx[j] += tb[0][j + 1] - tb[0][j] + hh[0][j + 1] + hh[0][j];
+            ty[j] += tb[1][j + 1] - tb[1][j] + hh[1][j + 1] + hh[1][j];
+            tz[j] += tb[2][j + 1] - tb[2][j] + hh[2][j + 1] + hh[2][j];
         }
 
         // Loop D: nodal forces F_i = f_i − f_{i−1} with f_{−1} = 0 (eq. 4.1).
@@ -439,12 +550,12 @@ impl InternalLoads {
             &mut self.force.z[n0..n0 + n + 1],
         );
         fx[0] = f[0][0];
-        fy[0] = f[0][1];
-        fz[0] = f[0][2];
+        fy[0] = f[1][0];
+        fz[0] = f[2][0];
         for i in 1..=n {
-            fx[i] = f[i][0] - f[i - 1][0];
-            fy[i] = f[i][1] - f[i - 1][1];
-            fz[i] = f[i][2] - f[i - 1][2];
+            fx[i] = f[0][i] - f[0][i - 1];
+            fy[i] = f[1][i] - f[1][i - 1];
+            fz[i] = f[2][i] - f[2][i - 1];
         }
     }
 }

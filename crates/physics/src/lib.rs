@@ -29,6 +29,7 @@ pub mod error;
 pub mod internal;
 pub mod joints;
 pub mod kernel;
+mod lanes;
 pub mod loads;
 pub mod math;
 pub mod model;

@@ -11,10 +11,12 @@ use crate::energy::{energies_with_rest, Energies};
 use crate::error::StepError;
 use crate::internal::{turning_angle, InternalLoads};
 use crate::kernel::Kernel;
+use crate::lanes::{gather3, load3, s, LANES, X};
 use crate::loads::ExternalLoads;
 use crate::math::{
-    bjorck, cross, dot, exp_neg_skew, exp_neg_skew_series, log_relative, mat_mul, mat_vec,
-    orthonormality_defect, Real, Vec3, EXP_SERIES_MAX_SQ,
+    bjorck, cross, dot, dot_r, exp_neg_skew, exp_neg_skew_series, exp_neg_skew_series_r,
+    log_relative, mat_mul, mat_mul_r, mat_vec, orthonormality_defect, Real, Vec3,
+    EXP_SERIES_MAX_SQ,
 };
 use crate::rod_contact::{add_rod_contact_forces, RodContactScratch};
 use crate::state::{RodAccess, SystemState};
@@ -44,7 +46,7 @@ pub struct Workspace {
     pub external: ExternalLoads,
     kick: KickFactors,
     // J_j / e_j per element: the divisions of the dissipation sum, in their own vectorised loop.
-    inertia_over_e: Vec<Vec3>,
+    inertia_over_e: [Vec<f64>; 3],
     actuation: ActuationScratch,
     actuation_used: bool,
     // Per rod: whether its muscles were on in the last force evaluation.
@@ -79,7 +81,7 @@ impl Workspace {
             internal: InternalLoads::new(nn, ne, ni),
             external: ExternalLoads::zeros(nn, ne),
             kick: KickFactors::new(system.rods.len(), nn, ne),
-            inertia_over_e: vec![[0.0; 3]; ne],
+            inertia_over_e: std::array::from_fn(|_| vec![0.0; ne]),
             actuation: ActuationScratch::new(nn, ne),
             actuation_used: false,
             muscles_on: vec![false; system.rods.len()],
@@ -454,14 +456,38 @@ fn drift(system: &RodSystem, state: &mut SystemState, h: f64) {
         series_ok &= dot(a, a) < EXP_SERIES_MAX_SQ;
     }
     if series_ok {
-        // Nine entry slices of one length and the three ω slices: the loop indexes without
-        // bounds checks and LLVM can vectorise it across elements.
+        // Nine entry slices of one length and the three ω slices, cut to n so that the loops
+        // index without bounds checks.
         let [m0, m1, m2, m3, m4, m5, m6, m7, m8] = &mut state.director.m;
         let (m0, m1, m2) = (&mut m0[..n], &mut m1[..n], &mut m2[..n]);
         let (m3, m4, m5) = (&mut m3[..n], &mut m4[..n], &mut m5[..n]);
         let (m6, m7, m8) = (&mut m6[..n], &mut m7[..n], &mut m8[..n]);
         let (wx, wy, wz) = (&w.x[..n], &w.y[..n], &w.z[..n]);
-        for j in 0..n {
+        // Lanes across elements, the last n mod 4 one by one (the same formula, the same bits).
+        let n4 = n - n % LANES;
+        for j in (0..n4).step_by(LANES) {
+            let r = exp_neg_skew_series_r([
+                s(h) * X::load(wx, j),
+                s(h) * X::load(wy, j),
+                s(h) * X::load(wz, j),
+            ]);
+            let qj = [
+                [X::load(m0, j), X::load(m1, j), X::load(m2, j)],
+                [X::load(m3, j), X::load(m4, j), X::load(m5, j)],
+                [X::load(m6, j), X::load(m7, j), X::load(m8, j)],
+            ];
+            let p = mat_mul_r(&r, &qj);
+            p[0][0].store(m0, j);
+            p[0][1].store(m1, j);
+            p[0][2].store(m2, j);
+            p[1][0].store(m3, j);
+            p[1][1].store(m4, j);
+            p[1][2].store(m5, j);
+            p[2][0].store(m6, j);
+            p[2][1].store(m7, j);
+            p[2][2].store(m8, j);
+        }
+        for j in n4..n {
             let r = exp_neg_skew_series([h * wx[j], h * wy[j], h * wz[j]]);
             let qj = [
                 [m0[j], m1[j], m2[j]],
@@ -688,7 +714,46 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
         let mut work = 0.0;
         let mut diss = 0.0;
         let muscles_on = ws.muscles_on[r];
-        for i in first_node..=last_node {
+        let muscle_f = [
+            &ws.internal.muscle_force.x[nodes.clone()],
+            &ws.internal.muscle_force.y[nodes.clone()],
+            &ws.internal.muscle_force.z[nodes.clone()],
+        ];
+        // Lanes across nodes; the work and dissipation sums take the lanes' terms one by one in
+        // node order, as the scalar loop below does (the same additions in the same order).
+        let mut i = first_node;
+        while i + LANES <= last_node + 1 {
+            let (fi, fe) = (load3([fix, fiy, fiz], i), load3([fex, fey, fez], i));
+            let im = X::load(inv_m, i);
+            let a = [
+                (fi[0] + fe[0]) * im,
+                (fi[1] + fe[1]) * im,
+                (fi[2] + fe[2]) * im,
+            ];
+            let (dc, kc) = (X::load(decay, i), X::load(kick_n, i));
+            let mut mid = [s(0.0); 3];
+            for (c, v) in [&mut *vx, &mut *vy, &mut *vz].into_iter().enumerate() {
+                let new;
+                (new, mid[c]) = kick_component(dc, kc, X::load(v, i), a[c]);
+                new.store(v, i);
+            }
+            let w = dot_r(fe, mid).0;
+            let m = if muscles_on {
+                dot_r(load3(muscle_f, i), mid).0
+            } else {
+                [0.0; LANES]
+            };
+            let d = (X::load(mass, i) * X::load(rate_n, i) * dot_r(mid, mid)).0;
+            for l in 0..LANES {
+                work += w[l];
+                if muscles_on {
+                    work += m[l];
+                }
+                diss += d[l];
+            }
+            i += LANES;
+        }
+        for i in i..=last_node {
             let a = [
                 (fix[i] + fex[i]) * inv_m[i],
                 (fiy[i] + fey[i]) * inv_m[i],
@@ -725,13 +790,66 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
             &mut state.omega.y[elems.clone()],
             &mut state.omega.z[elems.clone()],
         );
-        let j_over_e = &mut ws.inertia_over_e[elems.clone()];
+        let [jex, jey, jez] = &mut ws.inertia_over_e;
+        let (jex, jey, jez) = (
+            &mut jex[elems.clone()],
+            &mut jey[elems.clone()],
+            &mut jez[elems.clone()],
+        );
         let inertia = &m.inertia[..n];
         let inv_inertia = &m.inv_inertia[..n];
-        for ((je, jj), e) in j_over_e.iter_mut().zip(inertia).zip(dil) {
-            *je = [jj[0] / e, jj[1] / e, jj[2] / e];
+        for j in 0..n {
+            let (jj, e) = (inertia[j], dil[j]);
+            (jex[j], jey[j], jez[j]) = (jj[0] / e, jj[1] / e, jj[2] / e);
         }
-        for j in first_elem..end_elem {
+        let (jex, jey, jez) = (&*jex, &*jey, &*jez);
+        let mut first_scalar = first_elem;
+        if !gamma_active {
+            // Lanes across elements (constant factors; the per-length rate is scalar below).
+            let (decay0, kick0, rate0) = (
+                &k.element_decay0[elems.clone()],
+                &k.element_kick0[elems.clone()],
+                &k.element_rate0[elems.clone()],
+            );
+            let muscle_c = [
+                &ws.internal.muscle_couple.x[elems.clone()],
+                &ws.internal.muscle_couple.y[elems.clone()],
+                &ws.internal.muscle_couple.z[elems.clone()],
+            ];
+            let mut j = first_elem;
+            while j + LANES <= end_elem {
+                let e = X::load(dil, j);
+                let (dc, kc, rate) = (X::load(decay0, j), X::load(kick0, j), X::load(rate0, j));
+                let tq = load3([tix, tiy, tiz], j);
+                let cq = load3([cex, cey, cez], j);
+                let inv_j = gather3(inv_inertia, j);
+                let joe = load3([jex, jey, jez], j);
+                let mc = muscles_on.then(|| load3(muscle_c, j));
+                let mut terms = [[[0.0; LANES]; 3]; 3];
+                for (c, w) in [&mut *wx, &mut *wy, &mut *wz].into_iter().enumerate() {
+                    let alpha = e * (tq[c] + cq[c]) * inv_j[c];
+                    let (new, mid) = kick_component(dc, kc, X::load(w, j), alpha);
+                    new.store(w, j);
+                    terms[0][c] = (cq[c] * mid).0;
+                    if let Some(mc) = mc {
+                        terms[1][c] = (mc[c] * mid).0;
+                    }
+                    terms[2][c] = (joe[c] * rate * mid * mid).0;
+                }
+                for l in 0..LANES {
+                    for c in 0..3 {
+                        work += terms[0][c][l];
+                        if muscles_on {
+                            work += terms[1][c][l];
+                        }
+                        diss += terms[2][c][l];
+                    }
+                }
+                j += LANES;
+            }
+            first_scalar = j;
+        }
+        for j in first_scalar..end_elem {
             let e = dil[j];
             let (decay, kick, rate) = k.element(elems.start + j, e, dt, gamma_active);
             let inv_j = inv_inertia[j];
@@ -747,7 +865,7 @@ fn kick(system: &RodSystem, state: &mut SystemState, ws: &mut Workspace, dt: f64
                 if muscles_on {
                     work += ws.internal.muscle_couple.get(elems.start + j)[c] * mid;
                 }
-                diss += j_over_e[j][c] * rate * mid * mid;
+                diss += [jex[j], jey[j], jez[j]][c] * rate * mid * mid;
             }
             wx[j] = new[0];
             wy[j] = new[1];

@@ -3,7 +3,8 @@
 //! angular velocities, time, step count, dissipated energy — after ≥ 2 000 steps in which each
 //! lane's rest curvatures follow their own lagged command changed every 10 steps (as the RL
 //! environment drives its arms) from its own perturbed initial velocities; for batch sizes that
-//! are and are not multiples of the lane width and for N = 4, 20, 100. The thread count (1, 2,
+//! are and are not multiples of the lane width and for N = 4, 20, 100 (and N = 5, 6, 7, 21, which are not
+//! multiples of the lane width of `step`'s own element lanes). The thread count (1, 2,
 //! 3), the batch size (64 rods alone or among 67) and the kernel (baseline, AVX2) change no
 //! bit, and a lane the guard stops reports the same `StepError` as its own simulation while the
 //! other lanes go on unchanged.
@@ -127,6 +128,26 @@ fn every_lane_equals_its_own_simulation() {
                     "n = {n}, b = {b}: lane {l} differs from its simulation"
                 );
             }
+        }
+    }
+}
+
+// `step` itself runs lanes across elements (groups of `LANES` elements, the remaining n mod 4 one
+// by one); the batch runs lanes across rods with every element in turn. Element counts that are
+// not multiples of the lane width exercise `step`'s remainder loops in every stage (nodes,
+// elements, Voronoi points), against the batch's independent element order.
+#[test]
+fn element_counts_off_the_lane_width_change_no_bit() {
+    for n in [5, 6, 7, 21] {
+        let (mut batch, mut sims) = setup(n, 5e-5, 5);
+        run_batch(&mut batch, 200);
+        for (l, sim) in sims.iter_mut().enumerate() {
+            run_single(sim, l, 200).unwrap();
+            let lane = batch.simulation(l).unwrap();
+            assert!(
+                bits(&lane) == bits(sim),
+                "n = {n}: lane {l} differs from its simulation"
+            );
         }
     }
 }
