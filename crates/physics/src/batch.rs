@@ -17,11 +17,10 @@ use crate::ends::EndCondition;
 use crate::error::{ModelError, StepError};
 use crate::internal::{element_loads, voronoi_loads};
 use crate::kernel::Kernel;
-use crate::lanes::{s, L, X};
+use crate::lanes::{log_relative_x, s, L, X};
 use crate::math::{
-    asin_over_sin_series, bjorck, dot_r, exp_neg_skew, exp_neg_skew_series_r, log_factor_trig,
-    log_parts, mat_mul, mat_mul_r, orthonormality_defect, Mat3, Vec3, EXP_SERIES_MAX_SQ,
-    LOG_SERIES_MAX_SQ,
+    bjorck, dot_r, exp_neg_skew, exp_neg_skew_series_r, mat_mul, mat_mul_r, orthonormality_defect,
+    Mat3, Vec3, EXP_SERIES_MAX_SQ,
 };
 use crate::model::RodModel;
 use crate::simulation::Simulation;
@@ -766,17 +765,9 @@ fn internal_loads(sh: &Shared, ch: &mut Chunk) {
     }
     let (tb, hh) = (&mut ch.couple_pad, &mut ch.coupling_pad);
     for k in 0..nk {
-        // `log_relative` lane by lane: the series where it applies, libm's atan2 elsewhere.
-        let (w, c, s2) = log_parts(&frame_at(d, k + 1), &frame_at(d, k));
-        let mut factor = asin_over_sin_series(s2);
-        let series = |l: usize| c.0[l] > 0.0 && s2.0[l] < LOG_SERIES_MAX_SQ;
-        if !(series(0) & series(1) & series(2) & series(3)) {
-            for l in (0..LANES).filter(|&l| !series(l)) {
-                factor.0[l] = log_factor_trig(s2.0[l], c.0[l]).0;
-            }
-        }
+        let theta = log_relative_x(&frame_at(d, k + 1), &frame_at(d, k));
         let v = voronoi_loads(
-            [factor * w[0], factor * w[1], factor * w[2]],
+            theta,
             s(m.inv_rest_voronoi[k]),
             s(m.rest_voronoi_length[k]),
             s3(m.bend_stiffness[k]),

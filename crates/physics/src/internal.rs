@@ -4,10 +4,10 @@
 //! (with the velocity-dependent torques) and `ElasticLoads` (without), which controllers use to
 //! evaluate loads for other rest strains.
 
-use crate::lanes::{gather3, load3, LANES, X};
+use crate::lanes::{gather3, load3, log_relative_x, store3, LANES, X};
 use crate::math::{
-    asin_over_sin_series, cross, cross_r, dot, dot_r, log_factor_trig, log_parts, log_relative,
-    mat_t_vec, mat_t_vec_r, mat_vec, mat_vec_r, Mat3, Real, Vec3, LOG_SERIES_MAX_SQ,
+    cross, cross_r, dot, dot_r, log_relative, mat_t_vec, mat_t_vec_r, mat_vec, mat_vec_r, Mat3,
+    Real, Vec3,
 };
 use crate::model::RodModel;
 use crate::muscles::{MuscleModel, MuscleScratch, Resultants, Strains, N_GROUPS};
@@ -285,26 +285,11 @@ impl InternalLoads {
                     gather3(s0, j),
                     rates,
                 );
-                let [f0, f1, f2] = el.force;
-                f0.store(fx, j);
-                f1.store(fy, j);
-                f2.store(fz, j);
-                let [t0, t1, t2] = el.tangent;
-                t0.store(tgx, j);
-                t1.store(tgy, j);
-                t2.store(tgz, j);
-                let [g0, g1, g2] = el.sigma;
-                g0.store(sgx, j);
-                g1.store(sgy, j);
-                g2.store(sgz, j);
-                let [n0_, n1_, n2_] = el.stress;
-                n0_.store(stx, j);
-                n1_.store(sty, j);
-                n2_.store(stz, j);
-                let [q0, q1, q2] = el.torque;
-                q0.store(tqx, j);
-                q1.store(tqy, j);
-                q2.store(tqz, j);
+                store3(el.force, [fx, fy, fz], j);
+                store3(el.tangent, [tgx, tgy, tgz], j);
+                store3(el.sigma, [sgx, sgy, sgz], j);
+                store3(el.stress, [stx, sty, stz], j);
+                store3(el.torque, [tqx, tqy, tqz], j);
             }
             for j in n4..n {
                 let dx = [px[j + 1] - px[j], py[j + 1] - py[j], pz[j + 1] - pz[j]];
@@ -369,38 +354,19 @@ impl InternalLoads {
         // above 0.05 rad), so the loop has no branch per point in the common case.
         let nk4 = nk - nk % LANES;
         for k in (0..nk4).step_by(LANES) {
-            let (w, c, s2) = log_parts(&frame_x(k + 1), &frame_x(k));
-            let mut factor = asin_over_sin_series(s2);
-            let series = |l: usize| c.0[l] > 0.0 && s2.0[l] < LOG_SERIES_MAX_SQ;
-            if !(series(0) & series(1) & series(2) & series(3)) {
-                for l in (0..LANES).filter(|&l| !series(l)) {
-                    factor.0[l] = log_factor_trig(s2.0[l], c.0[l]).0;
-                }
-            }
+            let theta = log_relative_x(&frame_x(k + 1), &frame_x(k));
             let v = voronoi_loads(
-                [factor * w[0], factor * w[1], factor * w[2]],
+                theta,
                 X::load(inv_dr, k),
                 X::load(dr, k),
                 gather3(bend, k),
                 gather3(kap0, k),
                 X::load(inv_e3, k),
             );
-            let [a0, a1, a2] = v.scaled_couple;
-            a0.store(tbx, k + 1);
-            a1.store(tby, k + 1);
-            a2.store(tbz, k + 1);
-            let [b0, b1, b2] = v.coupling;
-            b0.store(hhx, k + 1);
-            b1.store(hhy, k + 1);
-            b2.store(hhz, k + 1);
-            let [c0, c1, c2] = v.kappa;
-            c0.store(kpx, k);
-            c1.store(kpy, k);
-            c2.store(kpz, k);
-            let [d0, d1, d2] = v.couple;
-            d0.store(cpx, k);
-            d1.store(cpy, k);
-            d2.store(cpz, k);
+            store3(v.scaled_couple, [tbx, tby, tbz], k + 1);
+            store3(v.coupling, [hhx, hhy, hhz], k + 1);
+            store3(v.kappa, [kpx, kpy, kpz], k);
+            store3(v.couple, [cpx, cpy, cpz], k);
         }
         for k in nk4..nk {
             let v = voronoi_loads(

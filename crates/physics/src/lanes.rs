@@ -95,3 +95,29 @@ pub(crate) fn load3(v: [&[f64]; 3], j: usize) -> [X; 3] {
 pub(crate) fn gather3(v: &[[f64; 3]], j: usize) -> [X; 3] {
     [X::gather(v, j, 0), X::gather(v, j, 1), X::gather(v, j, 2)]
 }
+
+/// Write three lane groups to entries `j..j + LANES` of three component slices.
+#[inline(always)]
+pub(crate) fn store3(v: [X; 3], out: [&mut [f64]; 3], j: usize) {
+    let [x, y, z] = out;
+    v[0].store(x, j);
+    v[1].store(y, j);
+    v[2].store(z, j);
+}
+
+/// `math::log_relative`'s rotation vector of Q_a Q_bᵀ for four frame pairs: its series in every
+/// lane, libm's atan2 (`log_factor_trig`) only in the lanes outside the series' range — per lane
+/// the operations of the `f64` function, with no branch when every lane takes the series.
+#[inline(always)]
+pub(crate) fn log_relative_x(qa: &[[X; 3]; 3], qb: &[[X; 3]; 3]) -> [X; 3] {
+    use crate::math::{asin_over_sin_series, log_factor_trig, log_parts, LOG_SERIES_MAX_SQ};
+    let (w, c, s2) = log_parts(qa, qb);
+    let mut factor = asin_over_sin_series(s2);
+    let series = |l: usize| c.0[l] > 0.0 && s2.0[l] < LOG_SERIES_MAX_SQ;
+    if !(series(0) & series(1) & series(2) & series(3)) {
+        for l in (0..LANES).filter(|&l| !series(l)) {
+            factor.0[l] = log_factor_trig(s2.0[l], c.0[l]).0;
+        }
+    }
+    [factor * w[0], factor * w[1], factor * w[2]]
+}
