@@ -419,6 +419,15 @@ fn muscular_arm_step_does_not_allocate() {
 // the plane — after the Verlet list has been built once: no step allocates, guard included.
 #[test]
 fn contact_with_friction_rod_and_self_contact_does_not_allocate() {
+    for geometry in [
+        octoarm_physics::RodGeometry::Polyline,
+        octoarm_physics::RodGeometry::Smooth,
+    ] {
+        every_contact_model(geometry);
+    }
+}
+
+fn every_contact_model(geometry: octoarm_physics::RodGeometry) {
     use octoarm_physics::{ContactParams, Cylinder, Friction, Plane};
     let mut rod = StraightRod::uniform(
         60,
@@ -475,6 +484,7 @@ fn contact_with_friction_rod_and_self_contact_does_not_allocate() {
         rods: true,
         self_contact: true,
         rod_friction: Friction::coulomb(0.3),
+        rod_geometry: geometry,
         ..ContactParams::default()
     })
     .unwrap();
@@ -489,7 +499,7 @@ fn contact_with_friction_rod_and_self_contact_does_not_allocate() {
     });
     assert_eq!(
         n, 0,
-        "{n} heap allocations in {STEPS} steps with every contact model"
+        "{n} heap allocations in {STEPS} steps with every contact model ({geometry:?})"
     );
     assert!(rebuilds >= 1, "the broad phase never ran");
     let (g, _) = octoarm_physics::obstacle_penetration(
